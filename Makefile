@@ -1,0 +1,29 @@
+# hyper-nav: two commands. `make run` sets up and flies the default scenario;
+# `make test` sets up and runs the whole suite.
+SHELL := /bin/bash
+SCENARIO ?= default
+RUN_NAME ?= $(SCENARIO)
+ENV := source tools/env.sh &&
+
+.PHONY: setup run test clean bench help
+
+help:
+	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
+	@echo "make test  - set up and run the whole test suite"
+	@echo "make bench - print performance figures"
+	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
+
+setup:
+	@bash tools/setup.sh
+
+run: setup
+	@$(ENV) run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report
+
+test: setup
+	@$(ENV) python -m pytest -c pytest.ini
+
+bench: setup
+	@$(ENV) python benchmarks/run_all.py
+
+clean:
+	rm -rf build install log

@@ -1,0 +1,34 @@
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = "hyper_nav_sim"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/scenarios", glob("scenarios/*.yaml")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="hyper-nav maintainers",
+    maintainer_email="maintainers@hyper-nav.org",
+    description="Hypersonic trajectory and sensor simulation, graph starter, recorder and player.",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "truth_node = hyper_nav_sim.nodes.truth_node:main",
+            "imu_node = hyper_nav_sim.nodes.imu_node:main",
+            "gnss_node = hyper_nav_sim.nodes.gnss_node:main",
+            "mag_node = hyper_nav_sim.nodes.mag_node:main",
+            "recorder = hyper_nav_sim.nodes.recorder:main",
+            "player = hyper_nav_sim.nodes.player:main",
+            "run_graph = hyper_nav_sim.graph:main",
+            "report = hyper_nav_sim.report:main",
+        ],
+    },
+)

