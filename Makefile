@@ -17,7 +17,7 @@ setup:
 	@bash tools/setup.sh
 
 run: setup
-	@$(ENV) run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report
+	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report
 
 test: setup
 	@$(ENV) python -m pytest -c pytest.ini

@@ -19,7 +19,6 @@ setup(
     entry_points={
         "console_scripts": [
             "fusion_node = hyper_nav_filter.nodes.fusion_node:main",
-            "replay_filter = hyper_nav_filter.offline:main",
         ],
     },
 )

@@ -29,6 +29,7 @@ setup(
             "player = hyper_nav_sim.nodes.player:main",
             "run_graph = hyper_nav_sim.graph:main",
             "report = hyper_nav_sim.report:main",
+            "replay_filter = hyper_nav_sim.report:replay_main",
         ],
     },
 )

@@ -1,0 +1,98 @@
+"""Typed, validated filter configuration (one object per node, STYLE 7).
+
+Noise and initial uncertainty are given in datasheet units, named with the
+unit, and converted to SI here once.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from . import units
+from .state_layout import StateLayout
+
+
+class ConfigError(ValueError):
+    """A configuration field is missing or invalid; the message names it."""
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    state_blocks: tuple[str, ...] = ("att", "vel", "pos", "bg", "ba")
+    # IMU noise model assumed by the filter
+    gyro_arw_deg_per_sqrt_hr: float = 0.01
+    accel_vrw_ug_per_sqrt_hz: float = 100.0
+    gyro_bias_sigma_deg_per_hr: float = 0.1
+    gyro_bias_tau_s: float = 3600.0
+    accel_bias_sigma_ug: float = 1000.0
+    accel_bias_tau_s: float = 3600.0
+    # initial uncertainty (1 sigma)
+    init_att_sigma_arcmin: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    init_vel_sigma_mps: tuple[float, float, float] = (0.2, 0.2, 0.2)
+    init_pos_sigma_m: tuple[float, float, float] = (5.0, 5.0, 10.0)
+    # GNSS antenna position in body axes relative to the IMU (FLU, m)
+    antenna_lever_arm_b_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    # measurement handling
+    gate_probability: float = 0.9999
+    reprocess_window_s: float = 2.0
+    output_delay_s: float = 0.3
+    output_rate_hz: float = 50.0
+    layout: StateLayout = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        for f in fields(self):
+            if f.name in ("layout", "state_blocks"):
+                continue
+            val = getattr(self, f.name)
+            arr = np.asarray(val, dtype=object)
+            flat = arr.ravel().tolist() if arr.ndim else [val]
+            if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in flat):
+                raise ConfigError(f"filter config field '{f.name}' must be numeric, got {val!r}")
+            if not all(np.isfinite(float(x)) for x in flat):
+                raise ConfigError(f"filter config field '{f.name}' must be finite, got {val!r}")
+            if isinstance(f.default, tuple) and len(flat) != len(f.default):
+                raise ConfigError(f"filter config field '{f.name}' needs {len(f.default)} values, got {val!r}")
+        for name in ("gyro_bias_tau_s", "accel_bias_tau_s", "output_rate_hz", "reprocess_window_s"):
+            if getattr(self, name) <= 0:
+                raise ConfigError(f"filter config field '{name}' must be > 0")
+        if not 0.5 < self.gate_probability < 1.0:
+            raise ConfigError("filter config field 'gate_probability' must be in (0.5, 1)")
+        if self.output_delay_s < 0 or self.output_delay_s >= self.reprocess_window_s:
+            raise ConfigError("filter config field 'output_delay_s' must be in [0, reprocess_window_s)")
+        try:
+            object.__setattr__(self, "layout", StateLayout(tuple(self.state_blocks)))
+        except ValueError as exc:
+            raise ConfigError(f"filter config field 'state_blocks': {exc}") from None
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FilterConfig":
+        known = {f.name for f in fields(cls) if f.init}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ConfigError(f"unknown filter config field(s) {unknown}")
+        conv = {k: tuple(v) if isinstance(v, (list, tuple)) else v for k, v in d.items()}
+        return cls(**conv)
+
+    def process_noise_psd(self) -> np.ndarray:
+        """Diagonal of Qc for noise order (w_g, w_a, w_bg, w_ba), SI units."""
+        arw = units.deg_per_sqrt_hr(self.gyro_arw_deg_per_sqrt_hr)
+        vrw = units.ug_per_sqrt_hz(self.accel_vrw_ug_per_sqrt_hz)
+        sbg = units.deg_per_hr(self.gyro_bias_sigma_deg_per_hr)
+        sba = units.ug(self.accel_bias_sigma_ug)
+        return np.concatenate([np.full(3, arw**2), np.full(3, vrw**2),
+                               np.full(3, 2 * sbg**2 / self.gyro_bias_tau_s),
+                               np.full(3, 2 * sba**2 / self.accel_bias_tau_s)])
+
+    def initial_covariance(self) -> np.ndarray:
+        lay = self.layout
+        P = np.zeros((lay.dim, lay.dim))
+        diag = {"att": units.arcmin(self.init_att_sigma_arcmin),
+                "vel": np.asarray(self.init_vel_sigma_mps, float),
+                "pos": np.asarray(self.init_pos_sigma_m, float),
+                "bg": np.full(3, units.deg_per_hr(self.gyro_bias_sigma_deg_per_hr)),
+                "ba": np.full(3, units.ug(self.accel_bias_sigma_ug))}
+        for name in lay.names:
+            s = lay.sl(name)
+            P[s, s] = np.diag(diag[name] ** 2)
+        return P

@@ -1,0 +1,86 @@
+"""Continuous-time error dynamics of the ENU strapdown INS (phi-angle model).
+
+    phi_dot = -omega_in_n x phi + d_omega_in_n + C_b_n d_bg - C_b_n w_g
+    dv_dot  =  f_n x phi - C_b_n d_ba - (2 omega_ie_n + omega_en_n) x dv
+               + v_n x (2 d_omega_ie_n + d_omega_en_n) + d_g_n + C_b_n w_a
+    dr_dot  =  dv + (curvature terms of order v/R)
+
+(Titterton & Weston ch. 12; seed 003 eqs. 20-21 and seed 001's 15-state
+model in ENU). Biases are first-order Gauss-Markov processes. Errors are
+estimate minus truth; position error is in local ENU metres.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import earth
+from .attitude import skew
+from .nav_state import NavState
+from .state_layout import StateLayout
+
+
+def system_matrices(state: NavState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.ndarray,
+                    layout: StateLayout, gyro_bias_tau_s: float, accel_bias_tau_s: float):
+    """Return F (n x n) and G (n x 12) with noise order (w_g, w_a, w_bg, w_ba)."""
+    n = layout.dim
+    F = np.zeros((n, n))
+    G = np.zeros((n, 12))
+    lat, h, v = state.lat_rad, state.alt_m, state.vel_enu_mps
+    ve, vn, vu = v
+    r_m, r_n = earth.radii(lat)
+    rmh, rnh = r_m + h, r_n + h
+    tl, sl, cl = np.tan(lat), np.sin(lat), np.cos(lat)
+    W = earth.OMEGA_IE_RADPS
+    w_ie = earth.omega_ie_n(lat)
+    w_en = earth.omega_en_n(lat, h, v)
+    C = state.C_b_n
+    f_n = C @ f_b_mps2
+    a, vv, p = layout.sl("att"), layout.sl("vel"), layout.sl("pos")
+
+    # Partial derivatives of omega_ie_n and omega_en_n w.r.t. dv and dr (ENU m).
+    d_wie_dr = np.zeros((3, 3))
+    d_wie_dr[1, 1] = -W * sl / rmh
+    d_wie_dr[2, 1] = W * cl / rmh
+    d_wen_dv = np.array([[0.0, -1.0 / rmh, 0.0],
+                         [1.0 / rnh, 0.0, 0.0],
+                         [tl / rnh, 0.0, 0.0]])
+    d_wen_dr = np.array([[0.0, 0.0, vn / rmh**2],
+                         [0.0, 0.0, -ve / rnh**2],
+                         [0.0, ve / (cl**2 * rnh * rmh), -ve * tl / rnh**2]])
+
+    F[a, a] = -skew(w_ie + w_en)
+    F[a, vv] = d_wen_dv
+    F[a, p] = d_wie_dr + d_wen_dr
+    F[vv, a] = skew(f_n)
+    F[vv, vv] = -skew(2.0 * w_ie + w_en) + skew(v) @ d_wen_dv
+    F[vv, p] = skew(v) @ (2.0 * d_wie_dr + d_wen_dr)
+    g = -earth.gravity_n(lat, h)[2]
+    F[vv.start + 2, p.start + 2] += 2.0 * g / np.sqrt(r_m * r_n)
+    F[p, vv] = np.eye(3)
+    F[p, p] = np.array([[vu / rnh - vn * tl / rmh, ve * tl / rmh, -ve / rnh],
+                        [0.0, vu / rmh, -vn / rmh],
+                        [0.0, 0.0, 0.0]])
+    G[a, 0:3] = -C
+    G[vv, 3:6] = C
+    if layout.has("bg"):
+        bg = layout.sl("bg")
+        F[a, bg] = C
+        F[bg, bg] = -np.eye(3) / gyro_bias_tau_s
+        G[bg, 6:9] = np.eye(3)
+    if layout.has("ba"):
+        ba = layout.sl("ba")
+        F[vv, ba] = -C
+        F[ba, ba] = -np.eye(3) / accel_bias_tau_s
+        G[ba, 9:12] = np.eye(3)
+    return F, G
+
+
+def discretize(F, G, Qc_diag, dt_s):
+    """Transition matrix Phi = I + F dt + (F dt)^2 / 2 and process noise
+    Q = (Phi G Qc G^T Phi^T + G Qc G^T) dt / 2 (trapezoidal)."""
+    n = F.shape[0]
+    Fdt = F * dt_s
+    Phi = np.eye(n) + Fdt + 0.5 * Fdt @ Fdt
+    GQG = (G * Qc_diag) @ G.T
+    Q = 0.5 * (Phi @ GQG @ Phi.T + GQG) * dt_s
+    return Phi, Q

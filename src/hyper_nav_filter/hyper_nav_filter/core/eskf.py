@@ -1,0 +1,130 @@
+"""Error-state Kalman filter on the ENU strapdown INS.
+
+The filter owns the nominal state and the error covariance. ``predict``
+runs one mechanization step and propagates P; ``update`` takes any
+measurement model's (residual, H, R), gates it with a chi-square test on the
+normalized innovation squared, applies the Joseph-form update and injects
+the error estimate into the nominal state (then resets the error to zero).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+
+from . import earth, mechanization
+from .attitude import rotvec_to_C
+from .config import FilterConfig
+from .error_model import discretize, system_matrices
+from .nav_state import ImuSample, NavState
+
+
+@dataclass
+class UpdateResult:
+    kind: str
+    t_s: float
+    nis: float
+    accepted: bool
+    residual: np.ndarray
+
+
+@dataclass
+class FilterSnapshot:
+    """Everything needed to resume the filter at an epoch (for re-processing)."""
+    state: NavState
+    P: np.ndarray
+    imu_prev: ImuSample | None
+    vel_prev_enu_mps: np.ndarray | None
+    n_updates: int
+    n_rejected: int
+    last_nis: float
+
+
+class ErrorStateKF:
+    def __init__(self, config: FilterConfig, state: NavState, P0: np.ndarray):
+        self.cfg = config
+        self.layout = config.layout
+        self.state = state
+        self.P = P0.copy()
+        self.imu_prev: ImuSample | None = None
+        self.vel_prev_enu_mps: np.ndarray | None = None
+        self.n_updates = 0
+        self.n_rejected = 0
+        self.last_nis = float("nan")
+        self._Qc = config.process_noise_psd()
+        self._gate = {}
+
+    # ---- bookkeeping for re-processing -------------------------------------
+    def snapshot(self) -> FilterSnapshot:
+        return FilterSnapshot(self.state.copy(), self.P.copy(), self.imu_prev,
+                              None if self.vel_prev_enu_mps is None else self.vel_prev_enu_mps.copy(),
+                              self.n_updates, self.n_rejected, self.last_nis)
+
+    def restore(self, snap: FilterSnapshot) -> None:
+        self.state = snap.state.copy()
+        self.P = snap.P.copy()
+        self.imu_prev = snap.imu_prev
+        self.vel_prev_enu_mps = None if snap.vel_prev_enu_mps is None else snap.vel_prev_enu_mps.copy()
+        self.n_updates, self.n_rejected, self.last_nis = snap.n_updates, snap.n_rejected, snap.last_nis
+
+    # ---- predict ----------------------------------------------------------------
+    def predict(self, imu: ImuSample) -> None:
+        """Mechanize one IMU interval and propagate the covariance."""
+        prior = self.state
+        dth, dv = mechanization.compensate(imu, prior)
+        F, G = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout,
+                               self.cfg.gyro_bias_tau_s, self.cfg.accel_bias_tau_s)
+        Phi, Q = discretize(F, G, self._Qc, imu.dt_s)
+        self.state = mechanization.propagate(prior, imu, self.imu_prev, self.vel_prev_enu_mps)
+        self.vel_prev_enu_mps = prior.vel_enu_mps
+        self.imu_prev = imu
+        P = Phi @ self.P @ Phi.T + Q
+        self.P = 0.5 * (P + P.T)
+
+    # ---- update -----------------------------------------------------------------
+    def gate_threshold(self, dof: int) -> float:
+        if dof not in self._gate:
+            self._gate[dof] = float(chi2.ppf(self.cfg.gate_probability, dof))
+        return self._gate[dof]
+
+    def update(self, kind: str, t_s: float, residual, H, R) -> UpdateResult:
+        """Apply a measurement: residual = predicted - measured, H its Jacobian
+        w.r.t. the error state, R its covariance."""
+        residual = np.asarray(residual, dtype=float)
+        S = H @ self.P @ H.T + R
+        S = 0.5 * (S + S.T)
+        try:
+            S_inv_r = np.linalg.solve(S, residual)
+        except np.linalg.LinAlgError:
+            self.n_rejected += 1
+            return UpdateResult(kind, t_s, float("inf"), False, residual)
+        nis = float(residual @ S_inv_r)
+        self.last_nis = nis
+        if not np.isfinite(nis) or nis > self.gate_threshold(len(residual)):
+            self.n_rejected += 1
+            return UpdateResult(kind, t_s, nis, False, residual)
+        K = np.linalg.solve(S, H @ self.P).T          # P H^T S^-1 (S symmetric)
+        dx = K @ residual
+        I_KH = np.eye(self.layout.dim) - K @ H
+        P = I_KH @ self.P @ I_KH.T + K @ R @ K.T        # Joseph form
+        self.P = 0.5 * (P + P.T)
+        self._inject(dx)
+        self.n_updates += 1
+        return UpdateResult(kind, t_s, nis, True, residual)
+
+    def _inject(self, dx: np.ndarray) -> None:
+        """Correct the nominal state with the error estimate (estimate - truth)."""
+        lay, s = self.layout, self.state
+        phi = dx[lay.sl("att")]
+        s.C_b_n = rotvec_to_C(phi) @ s.C_b_n        # C_true = (I + [phi x]) C_est
+        s.vel_enu_mps = s.vel_enu_mps - dx[lay.sl("vel")]
+        d_e, d_n, d_u = dx[lay.sl("pos")]
+        r_m, r_n = earth.radii(s.lat_rad)
+        s.lat_rad -= d_n / (r_m + s.alt_m)
+        s.lon_rad -= d_e / ((r_n + s.alt_m) * np.cos(s.lat_rad))
+        s.alt_m -= d_u
+        if lay.has("bg"):
+            s.gyro_bias_b_radps = s.gyro_bias_b_radps - dx[lay.sl("bg")]
+        if lay.has("ba"):
+            s.accel_bias_b_mps2 = s.accel_bias_b_mps2 - dx[lay.sl("ba")]

@@ -1,0 +1,76 @@
+"""Measurement models: each returns (residual, H, R) for the current nominal
+state, residual = predicted - measured (STYLE pattern 4). The filter loop
+does gating, the Joseph update and bookkeeping for all of them.
+
+GNSS loosely coupled models with antenna lever arm l_b (body FLU, m):
+    r_ant = r + C_b_n l_b                       (position, ENU metres)
+    v_ant = v + C_b_n (omega_nb_b x l_b)         (velocity, ENU m/s)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import earth
+from .attitude import skew
+from .nav_state import NavState
+from .state_layout import StateLayout
+
+
+@dataclass(frozen=True)
+class GnssPosition:
+    """GNSS antenna position fix at epoch t_s; covariance in ENU (m^2)."""
+    t_s: float
+    lat_rad: float
+    lon_rad: float
+    alt_m: float
+    cov_enu_m2: np.ndarray
+    kind: str = "gnss_pos"
+
+    def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
+        l_n = state.C_b_n @ ctx.lever_arm_b_m
+        pred_enu = earth.position_error_enu_m(state.lat_rad, state.lon_rad, state.alt_m,
+                                              self.lat_rad, self.lon_rad, self.alt_m)
+        residual = pred_enu + l_n + state.vel_enu_mps * ctx.dt_to_meas_s
+        H = np.zeros((3, layout.dim))
+        H[:, layout.sl("pos")] = np.eye(3)
+        H[:, layout.sl("att")] = skew(l_n)
+        return residual, H, self.cov_enu_m2
+
+
+@dataclass(frozen=True)
+class GnssVelocity:
+    """GNSS antenna velocity w.r.t. Earth at epoch t_s; ENU, covariance (m/s)^2."""
+    t_s: float
+    vel_enu_mps: np.ndarray
+    cov_enu_m2ps2: np.ndarray
+    kind: str = "gnss_vel"
+
+    def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
+        lever_vel_b = np.cross(ctx.omega_nb_b_radps, ctx.lever_arm_b_m)
+        lever_vel_n = state.C_b_n @ lever_vel_b
+        residual = state.vel_enu_mps + lever_vel_n - self.vel_enu_mps
+        H = np.zeros((3, layout.dim))
+        H[:, layout.sl("vel")] = np.eye(3)
+        H[:, layout.sl("att")] = skew(lever_vel_n)
+        if layout.has("bg"):
+            H[:, layout.sl("bg")] = state.C_b_n @ skew(ctx.lever_arm_b_m)
+        return residual, H, self.cov_enu_m2ps2
+
+
+@dataclass(frozen=True)
+class ModelContext:
+    """Quantities a model needs besides the state: the antenna lever arm, the
+    body rate relative to ENU, and the measurement epoch minus state epoch."""
+    lever_arm_b_m: np.ndarray
+    omega_nb_b_radps: np.ndarray
+    dt_to_meas_s: float
+
+
+def is_finite(meas) -> bool:
+    """True when every numeric field of a measurement is finite."""
+    for v in vars(meas).values():
+        if isinstance(v, (float, int, np.ndarray)) and not np.all(np.isfinite(v)):
+            return False
+    return True

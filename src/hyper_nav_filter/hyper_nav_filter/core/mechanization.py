@@ -1,0 +1,81 @@
+"""Strapdown INS mechanization in the local-level ENU frame with geodetic position.
+
+Velocity, position and attitude updates from IMU increments, with the
+two-sample (current + previous interval) coning and sculling corrections
+(seed 001 section 3, after Savage; the same algorithm family as KF-GINS).
+Gravity, Earth rate and transport rate are evaluated at the mid-interval
+position and velocity, extrapolated from the previous epoch.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import earth
+from .attitude import cross3, orthonormalize, rotvec_to_C, skew
+from .nav_state import ImuSample, NavState
+
+
+def coning_rotation_vector(dtheta_b_rad, dtheta_prev_b_rad):
+    """Body rotation vector over the interval with the two-sample coning term."""
+    return dtheta_b_rad + cross3(dtheta_prev_b_rad, dtheta_b_rad) / 12.0
+
+
+def sculling_velocity_increment(dtheta_b_rad, dvel_b_mps, dtheta_prev_b_rad, dvel_prev_b_mps):
+    """Body velocity increment with rotation and two-sample sculling terms."""
+    return (dvel_b_mps + 0.5 * cross3(dtheta_b_rad, dvel_b_mps)
+            + (cross3(dtheta_prev_b_rad, dvel_b_mps) + cross3(dvel_prev_b_mps, dtheta_b_rad)) / 12.0)
+
+
+def compensate(imu: ImuSample, state: NavState) -> tuple[np.ndarray, np.ndarray]:
+    """Remove the estimated biases from the increments."""
+    return (imu.dtheta_b_rad - state.gyro_bias_b_radps * imu.dt_s,
+            imu.dvel_b_mps - state.accel_bias_b_mps2 * imu.dt_s)
+
+
+def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,
+              vel_prev_enu_mps: np.ndarray | None = None) -> NavState:
+    """One mechanization step from ``state`` (epoch imu.t_s - dt) to imu.t_s.
+
+    ``imu_prev`` supplies the previous interval for the coning/sculling terms
+    (None at the first step). ``vel_prev_enu_mps`` is the velocity one step
+    before ``state``, used to extrapolate the mid-interval velocity.
+    """
+    dt = imu.dt_s
+    dth, dv = compensate(imu, state)
+    if imu_prev is None:
+        dth_p = np.zeros(3)
+        dv_p = np.zeros(3)
+    else:
+        dth_p, dv_p = compensate(imu_prev, state)
+    lat, lon, alt = state.lat_rad, state.lon_rad, state.alt_m
+    v0 = state.vel_enu_mps
+    # --- velocity: extrapolate position/velocity to mid-interval
+    v_prev = v0 if vel_prev_enu_mps is None else vel_prev_enu_mps
+    v_mid_ex = 1.5 * v0 - 0.5 * v_prev
+    rates = earth.geodetic_rates(lat, alt, v0)
+    lat_m, alt_m = lat + 0.5 * dt * rates[0], alt + 0.5 * dt * rates[2]
+    w_ie = earth.omega_ie_n(lat_m)
+    w_en = earth.omega_en_n(lat_m, alt_m, v_mid_ex)
+    zeta = (w_ie + w_en) * dt
+    dv_f_b = sculling_velocity_increment(dth, dv, dth_p, dv_p)
+    dv_f_n = (np.eye(3) - 0.5 * skew(zeta)) @ state.C_b_n @ dv_f_b
+    g_n = earth.gravity_n(lat_m, alt_m)
+    dv_g = (g_n - cross3(2.0 * w_ie + w_en, v_mid_ex)) * dt
+    v1 = v0 + dv_f_n + dv_g
+    # --- position: trapezoidal in geodetic coordinates
+    v_mid = 0.5 * (v0 + v1)
+    alt1 = alt + v_mid[2] * dt
+    alt_mid = 0.5 * (alt + alt1)
+    r_m, _ = earth.radii(lat)
+    lat1 = lat + v_mid[1] / (r_m + alt_mid) * dt
+    lat_mid = 0.5 * (lat + lat1)
+    _, r_n = earth.radii(lat_mid)
+    lon1 = lon + v_mid[0] / ((r_n + alt_mid) * np.cos(lat_mid)) * dt
+    # --- attitude: body rotation with coning, nav-frame rotation at mid-interval
+    phi_b = coning_rotation_vector(dth, dth_p)
+    zeta = (earth.omega_ie_n(lat_mid) + earth.omega_en_n(lat_mid, alt_mid, v_mid)) * dt
+    C1 = rotvec_to_C(-zeta) @ state.C_b_n @ rotvec_to_C(phi_b)
+    return NavState(t_s=imu.t_s, lat_rad=lat1, lon_rad=lon1, alt_m=alt1, vel_enu_mps=v1,
+                    C_b_n=orthonormalize(C1), gyro_bias_b_radps=state.gyro_bias_b_radps,
+                    accel_bias_b_mps2=state.accel_bias_b_mps2)
+

@@ -1,0 +1,37 @@
+"""Nominal navigation state and IMU sample types shared by the INS and filter."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ImuSample:
+    """IMU increments over (t_s - dt_s, t_s], body FLU axes.
+
+    ``dtheta_b_rad`` is the integral of the angular rate omega_ib_b and
+    ``dvel_b_mps`` the integral of specific force over the interval.
+    """
+    t_s: float
+    dt_s: float
+    dtheta_b_rad: np.ndarray
+    dvel_b_mps: np.ndarray
+
+
+@dataclass
+class NavState:
+    """Nominal strapdown state in the local-level (ENU/geodetic) frame."""
+    t_s: float
+    lat_rad: float
+    lon_rad: float
+    alt_m: float
+    vel_enu_mps: np.ndarray
+    C_b_n: np.ndarray
+    gyro_bias_b_radps: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    accel_bias_b_mps2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def copy(self) -> "NavState":
+        return replace(self, vel_enu_mps=self.vel_enu_mps.copy(), C_b_n=self.C_b_n.copy(),
+                       gyro_bias_b_radps=self.gyro_bias_b_radps.copy(),
+                       accel_bias_b_mps2=self.accel_bias_b_mps2.copy())

@@ -1,0 +1,114 @@
+"""Solution -> output message fields (flat {'a.b': value} dicts), no rclpy.
+
+Frames (README, "Frames"): ``nav/state`` is geodetic + local-level ENU at the
+current position (frame ``enu``); ``nav/odom`` is in ``map``, the ENU tangent
+plane at the scenario origin (REP-105), child ``base_link`` (FLU); its twist
+is in the child frame, as nav_msgs/Odometry defines; ``nav/fix`` is a
+NavSatFix with the ENU position covariance.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .conversions import s_to_stamp_fields
+from .core import earth
+from .core.attitude import C_b_n_to_euler, C_to_quat_xyzw
+from .core.fusion import Solution
+from .core.state_layout import StateLayout
+
+
+@dataclass(frozen=True)
+class OutputFrames:
+    map: str
+    enu: str
+    body: str
+    origin_lat_rad: float
+    origin_lon_rad: float
+    origin_alt_m: float
+
+
+def _header(t_s: float, frame: str) -> dict:
+    sec, nsec = s_to_stamp_fields(t_s)
+    return {"header.stamp.sec": sec, "header.stamp.nanosec": nsec, "header.frame_id": frame}
+
+
+def navstate_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -> dict:
+    s = sol.state
+    roll, pitch, heading = C_b_n_to_euler(s.C_b_n)
+    q = C_to_quat_xyzw(s.C_b_n)
+    d = _header(sol.t_s, frames.enu)
+    d.update({
+        "child_frame_id": frames.body, "mode": sol.mode, "mechanization_frame": "ENU",
+        "lat_rad": float(s.lat_rad), "lon_rad": float(s.lon_rad), "alt_m": float(s.alt_m),
+        "vel_enu_mps": s.vel_enu_mps.tolist(),
+        "q_b_enu.x": q[0], "q_b_enu.y": q[1], "q_b_enu.z": q[2], "q_b_enu.w": q[3],
+        "roll_rad": float(roll), "pitch_rad": float(pitch), "heading_rad": float(heading),
+        "omega_ib_b_radps": sol.omega_ib_b_radps.tolist(), "accel_b_mps2": sol.f_b_mps2.tolist(),
+        "gyro_bias_b_radps": s.gyro_bias_b_radps.tolist(), "accel_bias_b_mps2": s.accel_bias_b_mps2.tolist(),
+        "state_blocks": layout.describe(), "state_dim": layout.dim, "covariance": sol.P.ravel().tolist(),
+        "n_updates": sol.n_updates, "n_rejected": sol.n_rejected,
+        "last_nis": float(sol.last_nis) if np.isfinite(sol.last_nis) else -1.0,
+    })
+    return d
+
+
+def map_pose(sol: Solution, frames: OutputFrames):
+    """Position [m] and attitude C_b_map in the map frame (ENU tangent plane at origin)."""
+    s = sol.state
+    pos = earth.enu_offset_m(frames.origin_lat_rad, frames.origin_lon_rad, frames.origin_alt_m,
+                             s.lat_rad, s.lon_rad, s.alt_m)
+    C_n_map = earth.C_n_e(frames.origin_lat_rad, frames.origin_lon_rad).T @ earth.C_n_e(s.lat_rad, s.lon_rad)
+    return pos, C_n_map, C_n_map @ s.C_b_n
+
+
+def odometry_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -> dict:
+    s = sol.state
+    pos, C_n_map, C_b_map = map_pose(sol, frames)
+    q = C_to_quat_xyzw(C_b_map)
+    P = sol.P
+    cov = np.zeros((6, 6))
+    p_sl, a_sl, v_sl = layout.sl("pos"), layout.sl("att"), layout.sl("vel")
+    cov[:3, :3] = C_n_map @ P[p_sl, p_sl] @ C_n_map.T
+    cov[3:, 3:] = C_n_map @ P[a_sl, a_sl] @ C_n_map.T   # rotation about map axes
+    cov[:3, 3:] = C_n_map @ P[p_sl, a_sl] @ C_n_map.T
+    cov[3:, :3] = cov[:3, 3:].T
+    v_b = s.C_b_n.T @ s.vel_enu_mps
+    tcov = np.zeros((6, 6))
+    tcov[:3, :3] = s.C_b_n.T @ P[v_sl, v_sl] @ s.C_b_n
+    if layout.has("bg"):
+        bg = layout.sl("bg")
+        tcov[3:, 3:] = P[bg, bg]
+    else:
+        tcov[3:, 3:] = np.eye(3) * 1e-8
+    d = _header(sol.t_s, frames.map)
+    d.update({
+        "child_frame_id": frames.body,
+        "pose.pose.position.x": float(pos[0]), "pose.pose.position.y": float(pos[1]),
+        "pose.pose.position.z": float(pos[2]),
+        "pose.pose.orientation.x": q[0], "pose.pose.orientation.y": q[1],
+        "pose.pose.orientation.z": q[2], "pose.pose.orientation.w": q[3],
+        "pose.covariance": cov.ravel().tolist(),
+        "twist.twist.linear.x": float(v_b[0]), "twist.twist.linear.y": float(v_b[1]),
+        "twist.twist.linear.z": float(v_b[2]),
+        "twist.twist.angular.x": float(sol.omega_ib_b_radps[0]),
+        "twist.twist.angular.y": float(sol.omega_ib_b_radps[1]),
+        "twist.twist.angular.z": float(sol.omega_ib_b_radps[2]),
+        "twist.covariance": tcov.ravel().tolist(),
+    })
+    return d
+
+
+def navsatfix_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -> dict:
+    s = sol.state
+    p_sl = layout.sl("pos")
+    d = _header(sol.t_s, frames.body)
+    d.update({
+        "status.status": 0, "status.service": 1,   # STATUS_FIX, SERVICE_GPS
+        "latitude": float(np.rad2deg(s.lat_rad)), "longitude": float(np.rad2deg(s.lon_rad)),
+        "altitude": float(s.alt_m),
+        "position_covariance": sol.P[p_sl, p_sl].ravel().tolist(),
+        "position_covariance_type": 3,                   # COVARIANCE_TYPE_KNOWN
+    })
+    return d

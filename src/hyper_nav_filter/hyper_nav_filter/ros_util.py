@@ -1,0 +1,57 @@
+"""Small rclpy helpers shared by every hyper-nav node (QoS, readiness, diagnostics)."""
+from __future__ import annotations
+
+import signal
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+
+def publisher_qos(depth: int) -> QoSProfile:
+    """Reliable, keep-last ``depth``: deep enough for the IMU rate so that a
+    paced graph loses nothing (see README, QoS)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE)
+
+
+def subscriber_qos(reliable: bool, depth: int) -> QoSProfile:
+    """Configurable subscriber QoS: reliable (default, lossless) or the
+    standard sensor-data profile (best effort)."""
+    if not reliable:
+        return qos_profile_sensor_data
+    return publisher_qos(depth)
+
+
+def all_matched(publishers, min_subscribers: int) -> bool:
+    return all(p.get_subscription_count() >= min_subscribers for p in publishers)
+
+
+def diagnostic_array(node, name: str, level_ok: bool, message: str, values: dict) -> DiagnosticArray:
+    arr = DiagnosticArray()
+    arr.header.stamp = node.get_clock().now().to_msg()
+    st = DiagnosticStatus()
+    st.level = DiagnosticStatus.OK if level_ok else DiagnosticStatus.WARN
+    st.name = name
+    st.message = message
+    st.hardware_id = node.get_name()
+    st.values = [KeyValue(key=str(k), value=str(v)) for k, v in sorted(values.items())]
+    arr.status = [st]
+    return arr
+
+
+def run_node(node_factory, args=None) -> None:
+    """Jazzy-style main: init, spin until shutdown or SIGINT/SIGTERM, clean up."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = node_factory()
+        signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            if hasattr(node, "on_shutdown"):
+                node.on_shutdown()
+            node.destroy_node()
+        rclpy.try_shutdown()

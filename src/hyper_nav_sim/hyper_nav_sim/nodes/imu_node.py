@@ -1,0 +1,54 @@
+"""IMU node: ``imu/data_raw`` (sensor_msgs/Imu) at the scenario IMU rate.
+
+Mapping of increments onto the message (README, "IMU message"): over the
+interval (previous stamp, header.stamp], angular_velocity = delta-theta / dt
+and linear_acceleration = delta-v / dt in body FLU (frame ``base_link``).
+No orientation: orientation_covariance[0] = -1. The rate covariances are the
+white-noise variances at the sample rate (ARW^2 / dt, VRW^2 / dt).
+"""
+from __future__ import annotations
+
+import numpy as np
+from sensor_msgs.msg import Imu
+
+from hyper_nav_filter.ros_util import run_node
+
+from ..core import simulate
+from ..core.imu_model import ImuErrors
+from .sensor_base import ClockDrivenSensor
+
+
+class ImuNode(ClockDrivenSensor):
+    def __init__(self):
+        super().__init__("imu")
+        self.frame_id = self.declare_parameter("frame_id", "base_link").value
+        sc = self.scenario
+        self.stream = simulate.imu_stream(sc, sc.trajectory())
+        err = ImuErrors.from_scenario(sc)
+        dt = self.stream.dt_s
+        self.gyro_var = err.gyro_arw_rad_per_sqrt_s**2 / dt
+        self.accel_var = err.accel_vrw_mps_per_sqrt_s**2 / dt
+        self.pub = self.create_publisher(Imu, "imu/data_raw", self.qos)
+        self.schedule(self.stream.t_s, self.pub, self._make)
+
+    def publishers_to_match(self):
+        return [self.pub]
+
+    def _make(self, i: int) -> Imu:
+        s, dt = self.stream, self.stream.dt_s
+        m = self.stamp(Imu(), s.t_s[i], self.frame_id)
+        w, a = s.dtheta_b_rad[i] / dt, s.dvel_b_mps[i] / dt
+        m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = map(float, w)
+        m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, a)
+        m.orientation_covariance[0] = -1.0
+        m.angular_velocity_covariance = np.diag([self.gyro_var] * 3).ravel().tolist()
+        m.linear_acceleration_covariance = np.diag([self.accel_var] * 3).ravel().tolist()
+        return m
+
+
+def main(args=None):
+    run_node(ImuNode, args)
+
+
+if __name__ == "__main__":
+    main()

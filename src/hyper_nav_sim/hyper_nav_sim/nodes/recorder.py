@@ -1,0 +1,129 @@
+"""recorder: record ROS topics into a rosbag2/MCAP bag as raw CDR (no deserialization).
+
+Parameters:
+    output (str, required)       bag directory to create; must not exist
+    topics (str[], default [])   topics to record; empty = every topic discovered
+    discovery_period_s (0.2)     how often to look for new topics (s)
+    qos_depth (2000)             KEEP_LAST depth of the reliable, volatile subscriptions
+
+Log time of each message = receive time on the node clock (ns; /clock time with
+use_sim_time:=true). /rosout and /parameter_events are never recorded.
+Publishes the per-topic counts every second on /recorder/counts
+(diagnostic_msgs/DiagnosticArray, status "recorder", key=topic, value=count).
+SIGINT/SIGTERM close the bag cleanly (MCAP summary and metadata.yaml written).
+"""
+
+import importlib
+from functools import partial
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+from hyper_nav_sim.core.bag import BagWriter, typestore
+
+NEVER_RECORD = frozenset({"/rosout", "/parameter_events"})
+
+
+def message_class(msgtype: str):
+    """Generated Python class of a ROS type name such as 'sensor_msgs/msg/Imu'."""
+    try:
+        from rosidl_runtime_py.utilities import get_message
+    except ImportError:
+        pkg, _, name = msgtype.split("/")
+        return getattr(importlib.import_module(f"{pkg}.msg"), name)
+    return get_message(msgtype)
+
+
+def string_array_param(node: Node, name: str) -> list:
+    """Declare a string-array parameter whose default is empty (rclpy cannot infer [])."""
+    node.declare_parameter(name, Parameter.Type.STRING_ARRAY)
+    return list(node.get_parameter_or(name, Parameter(name, value=[])).value)
+
+
+class Recorder(Node):
+    def __init__(self):
+        super().__init__("recorder")
+        output = self.declare_parameter("output", "").value
+        if not output:
+            raise ValueError("parameter 'output' (bag directory) is required")
+        self.wanted = {t if t.startswith("/") else "/" + t for t in string_array_param(self, "topics")}
+        period = self.declare_parameter("discovery_period_s", 0.2).value
+        self.qos = QoSProfile(
+            reliability=ReliabilityPolicy.RELIABLE,
+            history=HistoryPolicy.KEEP_LAST,
+            depth=self.declare_parameter("qos_depth", 2000).value,
+            durability=DurabilityPolicy.VOLATILE,
+        )
+        self.bag = BagWriter(output)
+        self.subs = {}  # topic -> subscription (None: not recordable)
+        self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
+        self.create_timer(period, self.discover)
+        self.create_timer(1.0, self.publish_counts)
+        self.get_logger().info(f"recording into {output}")
+
+    @property
+    def counts(self) -> dict:
+        """Messages recorded per topic."""
+        return self.bag.counts
+
+    def discover(self):
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.subs or topic in NEVER_RECORD or (self.wanted and topic not in self.wanted):
+                continue
+            msgtype, self.subs[topic] = types[0], None
+            if msgtype not in typestore().types:
+                self.get_logger().warning(f"not recording {topic}: type {msgtype} unknown to the typestore")
+                continue
+            try:
+                cls = message_class(msgtype)
+            except (ImportError, AttributeError, ValueError) as exc:
+                self.get_logger().warning(f"not recording {topic}: {exc}")
+                continue
+            callback = partial(self.on_message, topic, msgtype)
+            self.subs[topic] = self.create_subscription(cls, topic, callback, self.qos, raw=True)
+            self.get_logger().info(f"recording {topic} [{msgtype}]")
+
+    def on_message(self, topic: str, msgtype: str, raw: bytes):
+        self.bag.write(topic, msgtype, self.get_clock().now().nanoseconds, raw)
+
+    def publish_counts(self):
+        status = DiagnosticStatus(level=DiagnosticStatus.OK, name="recorder")
+        status.message = f"{sum(self.counts.values())} messages"
+        status.values = [KeyValue(key=t, value=str(n)) for t, n in sorted(self.counts.items())]
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.counts_pub.publish(msg)
+        self.bag.flush()
+
+    def close(self):
+        """Finish the bag (metadata.yaml) and print the per-topic counts."""
+        self.bag.close()
+        print(f"recorder: closed {self.bag.path}", flush=True)
+        for topic, n in sorted(self.counts.items()):
+            print(f"  {topic}: {n}", flush=True)
+
+
+def main(args=None):
+    # rclpy's handlers turn SIGINT and SIGTERM into a context shutdown, so spin
+    # ends (ExternalShutdownException) and the finally block closes the bag.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.ALL)
+    node = None
+    try:
+        node = Recorder()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

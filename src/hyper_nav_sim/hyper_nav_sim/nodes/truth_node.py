@@ -1,0 +1,118 @@
+"""Truth node: sim-time source (``/clock``) and ``truth/state``.
+
+Advances sim time in steps of 1 / graph.clock_rate_hz, paced at
+graph.real_time_factor x wall time, once ``/clock`` has ``clock_subscribers``
+matched subscriptions and ``truth/state`` has ``min_subscribers``. Publishes
+the exact truth (hyper_nav_msgs/NavState, mode TRUTH) at graph.truth_rate_hz,
+and exits ``tail_s`` of sim time after the scenario ends.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from hyper_nav_msgs.msg import NavState
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+
+from hyper_nav_filter.conversions import s_to_stamp_fields
+from hyper_nav_filter.core.attitude import C_to_quat_xyzw
+from hyper_nav_filter.ros_util import all_matched, diagnostic_array, publisher_qos, run_node
+
+from ..core.imu_model import ImuErrors
+from ..core.scenario import load_scenario
+
+
+class TruthNode(Node):
+    def __init__(self):
+        super().__init__("truth")
+        sc = self.scenario = load_scenario(self.declare_parameter("scenario", "default").value)
+        self.rtf = float(self.declare_parameter("real_time_factor", sc["graph.real_time_factor"]).value)
+        self.clock_subscribers = self.declare_parameter("clock_subscribers", 0).value
+        self.min_subscribers = self.declare_parameter("min_subscribers", 0).value
+        self.tail_s = float(self.declare_parameter("tail_s", 1.0).value)
+        self.enu_frame = self.declare_parameter("frames.enu", "enu").value
+        self.body_frame = self.declare_parameter("frames.body", "base_link").value
+        qos = publisher_qos(sc["graph.qos_depth"])
+        self.pub_clock = self.create_publisher(Clock, "/clock", qos)
+        self.pub_truth = self.create_publisher(NavState, "truth/state", qos)
+        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
+        self.step_s = 1.0 / sc["graph.clock_rate_hz"]
+        self.n_steps = int(np.ceil((sc["duration_s"] + self.tail_s) / self.step_s - 1e-9))
+        truth_every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
+        steps = np.arange(0, self.n_steps + 1)
+        t_truth = steps[(steps % truth_every == 0) & (steps * self.step_s <= sc["duration_s"] + 1e-9)] * self.step_s
+        self.truth = sc.trajectory().truth(t_truth)
+        self._truth_idx = 0
+        self.imu_errors = ImuErrors.from_scenario(sc)
+        self.k = 0
+        self.counts = {"published /clock": 0, "published truth/state": 0}
+        self.t_wall0 = None
+        self.done = False
+        self.timer = self.create_timer(0.05, self._wait)
+
+    def _wait(self):
+        if not (self.pub_clock.get_subscription_count() >= self.clock_subscribers
+                and all_matched([self.pub_truth], self.min_subscribers)):
+            return
+        self.timer.cancel()
+        self.get_logger().info(f"subscribers matched; flying {self.scenario.name} at {self.rtf}x real time")
+        self.t_wall0 = time.monotonic()
+        self.timer = self.create_timer(min(0.01, self.step_s / self.rtf), self._tick)
+
+    def _tick(self):
+        target = min(self.n_steps, int((time.monotonic() - self.t_wall0) * self.rtf / self.step_s))
+        while self.k <= target and not self.done:
+            t = self.k * self.step_s
+            self._publish_truth_until(t)
+            c = Clock()
+            c.clock.sec, c.clock.nanosec = s_to_stamp_fields(t)
+            self.pub_clock.publish(c)
+            self.counts["published /clock"] += 1
+            self.k += 1
+            if self.k > self.n_steps:
+                self.done = True
+        if self.done:
+            self.timer.cancel()
+            self._diag()
+            # reliable delivery: wait until every subscriber acknowledged
+            for pub in (self.pub_clock, self.pub_truth, self.pub_diag):
+                pub.wait_for_all_acked(Duration(seconds=10.0))
+            self.get_logger().info("scenario finished")
+            rclpy.try_shutdown()
+
+    def _publish_truth_until(self, t):
+        tr = self.truth
+        while self._truth_idx < len(tr.t_s) and tr.t_s[self._truth_idx] <= t + 1e-9:
+            i = self._truth_idx
+            m = NavState()
+            m.header.stamp.sec, m.header.stamp.nanosec = s_to_stamp_fields(tr.t_s[i])
+            m.header.frame_id, m.child_frame_id = self.enu_frame, self.body_frame
+            m.mode, m.mechanization_frame = NavState.MODE_TRUTH, "TRUTH"
+            m.lat_rad, m.lon_rad, m.alt_m = float(tr.lat_rad[i]), float(tr.lon_rad[i]), float(tr.alt_m[i])
+            m.vel_enu_mps = tr.vel_enu_mps[i].tolist()
+            q = C_to_quat_xyzw(tr.C_b_n[i])
+            m.q_b_enu.x, m.q_b_enu.y, m.q_b_enu.z, m.q_b_enu.w = map(float, q)
+            m.roll_rad, m.pitch_rad, m.heading_rad = float(tr.roll_rad[i]), float(tr.pitch_rad[i]), float(tr.heading_rad[i])
+            m.omega_ib_b_radps = tr.omega_ib_b_radps[i].tolist()
+            m.accel_b_mps2 = tr.f_b_mps2[i].tolist()
+            m.gyro_bias_b_radps = self.imu_errors.gyro_bias_b_radps.tolist()
+            m.accel_bias_b_mps2 = self.imu_errors.accel_bias_b_mps2.tolist()
+            self.pub_truth.publish(m)
+            self.counts["published truth/state"] += 1
+            self._truth_idx += 1
+
+    def _diag(self):
+        self.pub_diag.publish(diagnostic_array(self, "hyper_nav_sim: truth", True,
+                                               "done" if self.done else "running", self.counts))
+
+
+def main(args=None):
+    run_node(TruthNode, args)
+
+
+if __name__ == "__main__":
+    main()
