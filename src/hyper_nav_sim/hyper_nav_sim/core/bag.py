@@ -193,7 +193,8 @@ class BagReader:
                     yield Record(conn.topic, conn.msgtype, t_ns, bytes(raw))
             except Exception as exc:
                 self.truncated = True
-                self.error = f"{self.path}: stopped reading: {exc}"
+                files = ", ".join(map(str, sorted(self.path.glob("*.mcap"))))
+                self.error = f"{files}: stopped reading: {exc}"
 
     def __iter__(self) -> Iterator[Record]:
         self.counts = {}
