@@ -39,7 +39,7 @@ from ament_index_python.packages import get_package_prefix
 
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
 
-from .core.scenario import Scenario, load_scenario, validate
+from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"]}
 FUSION_INPUTS = {"imu/data_raw", "gnss/fix", "gnss/vel"}
@@ -221,6 +221,14 @@ class Graph:
 
 
 def main(argv=None) -> int:
+    try:
+        return _main(argv)
+    except ScenarioError as exc:
+        print(f"run_graph: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="Start the hyper-nav node graph on a scenario.")
     ap.add_argument("--scenario", default="default", help="scenario name (installed) or YAML path")
     ap.add_argument("--record", help="bag directory to record every topic to (rosbag2, MCAP)")

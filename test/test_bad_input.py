@@ -1,0 +1,92 @@
+"""Bad input gets a clear error and loses nothing."""
+import os
+import subprocess
+import time
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from hyper_nav_msgs.msg import NavState
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import Imu, NavSatFix
+
+from ament_index_python.packages import get_package_prefix
+
+from hyper_nav_sim.graph import Graph
+from hyper_nav_sim.testing import TopicCollector
+
+
+def _imu(t_s, wz=0.0):
+    m = Imu()
+    m.header.stamp.sec, m.header.stamp.nanosec = int(t_s), int(round((t_s % 1) * 1e9))
+    m.angular_velocity.z = wz
+    m.linear_acceleration.z = 9.79
+    m.orientation_covariance[0] = -1.0
+    return m
+
+
+@pytest.mark.graph
+def test_nan_and_out_of_order_imu_rejected_counted_and_node_keeps_running():
+    """Only the fusion node runs; the test publishes IMU messages to it over
+    DDS, one with NaN and one out of order, and reads /diagnostics."""
+    outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix}
+    with Graph("default", nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
+        with TopicCollector({"/diagnostics": DiagnosticArray, **outputs}, domain_id=g.domain_id) as c:
+            pub = c.publisher(Imu, "imu/data_raw")
+            deadline = 200
+            while pub.get_subscription_count() < 1 and deadline:
+                time.sleep(0.05)
+                deadline -= 1
+            assert pub.get_subscription_count() == 1, g.log("fusion")
+            stamps = [0.02 * k for k in range(1, 101)]
+            for k, t in enumerate(stamps):
+                if k == 40:
+                    pub.publish(_imu(t, wz=float("nan")))    # NaN: rejected
+                    pub.publish(_imu(t - 0.5))               # out of order: rejected
+                    pub.publish(_imu(t))                     # the good sample of this epoch
+                else:
+                    pub.publish(_imu(t))
+                time.sleep(0.002)
+
+            def counted(msgs):
+                for arr in msgs["/diagnostics"]:
+                    for st in arr.status:
+                        v = {kv.key: kv.value for kv in st.values}
+                        if st.name.endswith("fusion") and v.get("imu_accepted") == "100":
+                            return True
+                return False
+            assert c.wait_for(counted, 20.0), g.log("fusion")
+            g.check_alive()
+            last = [st for arr in c.messages["/diagnostics"] for st in arr.status if st.name.endswith("fusion")][-1]
+            v = {kv.key: kv.value for kv in last.values}
+            assert v["rejected_imu_nan"] == "1"
+            assert v["rejected_imu_out_of_order"] == "1"
+            assert v["imu_msgs"] == "102"
+            assert last.level in (1, b'\x01')    # WARN while input is being rejected (byte field)
+            # the filter kept producing solutions after the bad samples
+            assert c.wait_for(lambda m: len(m["nav/state"]) >= 80, 10.0)
+            assert np.isfinite(c.messages["nav/state"][-1].alt_m)
+
+
+@pytest.mark.parametrize("field,value,expect", [
+    ("imu.rate_hz", "fifty", "imu.rate_hz: expected a number"),
+    ("gnss.pos_sigma_enu_m", [5.0, 5.0], "gnss.pos_sigma_enu_m: expected a list of 3 numbers"),
+    ("start", {"lat_deg": 30.0}, "missing required field 'start.lon_deg'"),
+])
+def test_malformed_scenario_fails_naming_the_field(tmp_path, field, value, expect):
+    import yaml
+    from hyper_nav_sim.core.scenario import find_scenario
+    data = yaml.safe_load(find_scenario("default").read_text())
+    cur = data
+    parts = field.split(".")
+    for p in parts[:-1]:
+        cur = cur[p]
+    cur[parts[-1]] = value
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(data))
+    run_graph = os.path.join(get_package_prefix("hyper_nav_sim"), "lib", "hyper_nav_sim", "run_graph")
+    proc = subprocess.run([run_graph, "--scenario", str(bad)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert expect in proc.stderr, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr
