@@ -7,7 +7,7 @@ import pytest
 from hyper_nav_sim.graph import Graph
 from hyper_nav_sim.report import load_run
 
-SHORT = {"duration_s": 30.0, "report.skip_s": 10.0}
+SHORT = {"duration_s": 30.0, "report.skip_s": 10.0, "graph.real_time_factor": 2.0}
 
 
 @pytest.fixture(scope="session")

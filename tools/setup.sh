@@ -35,7 +35,7 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
   # shellcheck disable=SC1091
   source "$VENV/bin/activate"
   export CMAKE_PREFIX_PATH="$VENV" AMENT_PREFIX_PATH="$VENV"
-  colcon --log-base build/log build --build-base build --install-base install \
+  colcon --log-base build/log build --symlink-install --build-base build --install-base install \
     --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF \
     --event-handlers console_cohesion- summary+ 2>&1 | tail -n 20
   touch install/.stamp

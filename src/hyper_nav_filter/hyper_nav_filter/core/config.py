@@ -35,8 +35,8 @@ class FilterConfig:
     antenna_lever_arm_b_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     # measurement handling
     gate_probability: float = 0.9999
-    reprocess_window_s: float = 2.0
-    output_delay_s: float = 0.3
+    reprocess_window_s: float = 3.0
+    output_delay_s: float = 1.0
     output_rate_hz: float = 50.0
     layout: StateLayout = field(init=False, repr=False, compare=False)
 

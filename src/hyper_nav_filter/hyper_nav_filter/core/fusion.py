@@ -58,6 +58,7 @@ class FusionEngine:
         self._meas: list[tuple[float, str, int, object]] = []   # sorted (t, kind, seq, meas)
         self._seq = 0
         self._next_output_t = initial.t_s
+        self._last_released_t = -np.inf
         self.counters: Counter = Counter()
         self.nis_by_kind: dict[str, list[float]] = {}
 
@@ -98,6 +99,10 @@ class FusionEngine:
             return self._reject(f"{kind}_nan")
         if meas.t_s <= self._base.state.t_s:
             return self._reject(f"{kind}_stale")
+        if meas.t_s <= self._last_released_t + 1e-9:
+            # still applied, but solutions already released did not see it:
+            # a delay longer than output_delay_s (live and offline may differ)
+            self.counters[f"{kind}_after_release"] += 1
         self._seq += 1
         bisect.insort(self._meas, (meas.t_s, kind, self._seq, meas))
         self.counters[f"{kind}_received"] += 1
@@ -121,6 +126,7 @@ class FusionEngine:
             if t > horizon + 1e-9:
                 break
             out.append(self._solution(ep))
+            self._last_released_t = t
             while self._next_output_t <= t + 1e-9:
                 self._next_output_t += 1.0 / self.cfg.output_rate_hz
         return out

@@ -67,7 +67,7 @@ def test_late_gnss_gives_the_same_solution_as_on_time():
     on_time, _, _ = run(sc, duration_s=20.0, final=False)
     late, eng, _ = run(sc, duration_s=20.0, gnss_delay_epochs=10, final=False)
     assert eng.counters["gnss_pos_late"] > 150
-    assert len(on_time) == len(late) == 20 * 50 - 15      # last 0.3 s not yet released
+    assert len(on_time) == len(late) == 20 * 50 - 50      # last output_delay_s = 1 s not yet released
     for a, b in zip(on_time, late):
         assert a.t_s == b.t_s
         np.testing.assert_allclose([a.state.lat_rad, a.state.lon_rad, a.state.alt_m],
