@@ -2,7 +2,7 @@
 # `make test` sets up and runs the whole suite.
 SHELL := /bin/bash
 SCENARIO ?= default
-RUN_NAME ?= $(SCENARIO)
+RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
 .PHONY: setup run test clean bench help

@@ -30,6 +30,7 @@ setup(
             "run_graph = hyper_nav_sim.graph:main",
             "report = hyper_nav_sim.report:main",
             "replay_filter = hyper_nav_sim.report:replay_main",
+            "plot_scenarios = hyper_nav_sim.plot:main",
         ],
     },
 )

@@ -67,16 +67,24 @@ def summarize(err: dict, skip_s: float) -> dict:
     return out
 
 
-def format_table(summary: dict, limits: dict | None = None) -> str:
+def format_table(summary: dict, limits: dict | None = None, reference: dict | None = None) -> str:
+    """Our figures, the issue's limits (3D RMS) and a paper's per-axis figures beside them."""
     names = {"pos_enu_m": ("position", "m"), "vel_enu_mps": ("velocity", "m/s"), "att_enu_deg": ("attitude", "deg")}
+    ref = reference or {}
     lines = [f"accuracy after t >= {summary['skip_s']:.0f} s ({summary['epochs']} epochs)",
-             f"{'':10s} {'unit':>5s} {'RMS E':>9s} {'RMS N':>9s} {'RMS U':>9s} {'RMS 3D':>9s} {'max 3D':>9s}  limit (RMS 3D)"]
+             f"{'':10s} {'unit':>5s} {'RMS E':>9s} {'RMS N':>9s} {'RMS U':>9s} {'RMS 3D':>9s} {'max 3D':>9s} "
+             f"{'max|axis|':>9s}  {'limit RMS 3D':>14s}  {'paper/axis':>10s}"]
     for key, (label, unit) in names.items():
         s = summary[key]
         lim = (limits or {}).get(key)
-        verdict = "" if lim is None else f"< {lim:g}  {'PASS' if s['rms_3d'] < lim else 'FAIL'}"
+        verdict = "" if lim is None else f"< {lim:<6g} {'PASS' if s['rms_3d'] < lim else 'FAIL'}"
+        paper = ref.get(key)
+        max_axis = max(s["max_abs_enu"])
         lines.append(f"{label:10s} {unit:>5s} " + " ".join(f"{x:9.4f}" for x in s["rms_enu"]) +
-                     f" {s['rms_3d']:9.4f} {s['max_3d']:9.4f}  {verdict}")
+                     f" {s['rms_3d']:9.4f} {s['max_3d']:9.4f} {max_axis:9.4f}  {verdict:>14s}  "
+                     + ("" if paper is None else f"< {paper:g}"))
+    if ref.get("source"):
+        lines.append(f"paper/axis: {ref['source']}")
     return "\n".join(lines)
 
 
@@ -134,6 +142,11 @@ def _limits(sc) -> dict:
             "att_enu_deg": sc["report.max_att_rms_deg"]}
 
 
+def _reference(sc) -> dict:
+    return {"pos_enu_m": sc["report.reference_pos_m"], "vel_enu_mps": sc["report.reference_vel_mps"],
+            "att_enu_deg": sc["report.reference_att_deg"], "source": sc["report.reference_source"]}
+
+
 def _scenario(args):
     from .graph import apply_overrides
     from .core.scenario import load_scenario
@@ -164,12 +177,12 @@ def main(argv=None) -> int:
     summary = summarize(err, sc["report.skip_s"])
     delivery = delivery_check(run)
     limits = _limits(sc)
-    print(format_table(summary, limits))
+    print(format_table(summary, limits, _reference(sc)))
     lost = {t: d for t, d in delivery.items() if d["published"] != d["recorded"]}
     print(f"delivery: {len(delivery)} topics checked, "
           + ("nothing lost" if not lost else f"MISMATCH {lost}"))
     report = {"scenario": sc.name, "bag": str(bag), "truncated": run["truncated"], "summary": summary,
-              "limits_rms_3d": limits, "delivery": delivery, "message_counts": run["counts"],
+              "limits_rms_3d": limits, "paper_reference": _reference(sc), "delivery": delivery, "message_counts": run["counts"],
               "fusion_diagnostics": run["diagnostics"].get("hyper_nav_filter: fusion", {})}
     (bag / "report.json").write_text(json.dumps(report, indent=2))
     plot(err, bag / "errors.png", f"{sc.name}: nav/state - truth/state")
@@ -190,7 +203,7 @@ def replay_main(argv=None) -> int:
     sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state())
     truth = states_from_msgs([m for t, m in records if t.lstrip("/") == "truth/state"])
     summary = summarize(errors(states_from_solutions(sols), truth), sc["report.skip_s"])
-    print(format_table(summary, _limits(sc)))
+    print(format_table(summary, _limits(sc), _reference(sc)))
     print(f"engine counters: {dict(eng.counters)}")
     return 0
 

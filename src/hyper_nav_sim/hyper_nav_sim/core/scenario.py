@@ -66,6 +66,10 @@ SCHEMA = {
     "report.max_pos_rms_m": (NUM, False, None),
     "report.max_vel_rms_mps": (NUM, False, None),
     "report.max_att_rms_deg": (NUM, False, None),
+    "report.reference_source": (STR, False, ""),
+    "report.reference_pos_m": (NUM, False, None),
+    "report.reference_vel_mps": (NUM, False, None),
+    "report.reference_att_deg": (NUM, False, None),
 }
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth"}
