@@ -27,6 +27,14 @@ class FilterConfig:
     gyro_bias_tau_s: float = 3600.0
     accel_bias_sigma_ug: float = 1000.0
     accel_bias_tau_s: float = 3600.0
+    # first-order Markov gyro drift (block "gm", seed 000 eqs. 14-15)
+    gyro_markov_sigma_deg_per_hr: float = 0.05
+    gyro_markov_tau_s: float = 300.0
+    # receiver clock (block "clk"): initial sigmas and random-walk PSDs
+    clock_bias_sigma_m: float = 100.0
+    clock_drift_sigma_mps: float = 1.0
+    clock_bias_psd_m2ps: float = 0.1
+    clock_drift_psd_m2ps3: float = 0.01
     # initial uncertainty (1 sigma)
     init_att_sigma_arcmin: tuple[float, float, float] = (1.0, 1.0, 1.0)
     init_vel_sigma_mps: tuple[float, float, float] = (0.2, 0.2, 0.2)
@@ -53,7 +61,8 @@ class FilterConfig:
                 raise ConfigError(f"filter config field '{f.name}' must be finite, got {val!r}")
             if isinstance(f.default, tuple) and len(flat) != len(f.default):
                 raise ConfigError(f"filter config field '{f.name}' needs {len(f.default)} values, got {val!r}")
-        for name in ("gyro_bias_tau_s", "accel_bias_tau_s", "output_rate_hz", "reprocess_window_s"):
+        for name in ("gyro_bias_tau_s", "accel_bias_tau_s", "gyro_markov_tau_s", "output_rate_hz",
+                     "reprocess_window_s"):
             if getattr(self, name) <= 0:
                 raise ConfigError(f"filter config field '{name}' must be > 0")
         if not 0.5 < self.gate_probability < 1.0:
@@ -74,15 +83,26 @@ class FilterConfig:
         conv = {k: tuple(v) if isinstance(v, (list, tuple)) else v for k, v in d.items()}
         return cls(**conv)
 
-    def process_noise_psd(self) -> np.ndarray:
-        """Diagonal of Qc for noise order (w_g, w_a, w_bg, w_ba), SI units."""
+    def noise_psd(self, layout: StateLayout | None = None) -> dict:
+        """Continuous noise PSDs (SI) for a layout: {"psd": diag of Qc,
+        "columns": {noise name: slice}}, white gyro/accel noise first, then
+        the driving noise of each random block in layout order."""
+        layout = layout or self.layout
         arw = units.deg_per_sqrt_hr(self.gyro_arw_deg_per_sqrt_hr)
         vrw = units.ug_per_sqrt_hz(self.accel_vrw_ug_per_sqrt_hz)
-        sbg = units.deg_per_hr(self.gyro_bias_sigma_deg_per_hr)
-        sba = units.ug(self.accel_bias_sigma_ug)
-        return np.concatenate([np.full(3, arw**2), np.full(3, vrw**2),
-                               np.full(3, 2 * sbg**2 / self.gyro_bias_tau_s),
-                               np.full(3, 2 * sba**2 / self.accel_bias_tau_s)])
+        driving = {
+            "bg": np.full(3, 2 * units.deg_per_hr(self.gyro_bias_sigma_deg_per_hr) ** 2 / self.gyro_bias_tau_s),
+            "ba": np.full(3, 2 * units.ug(self.accel_bias_sigma_ug) ** 2 / self.accel_bias_tau_s),
+            "gm": np.full(3, 2 * units.deg_per_hr(self.gyro_markov_sigma_deg_per_hr) ** 2 / self.gyro_markov_tau_s),
+            "clk": np.array([self.clock_bias_psd_m2ps, self.clock_drift_psd_m2ps3]),
+        }
+        parts = [("w_g", np.full(3, arw**2)), ("w_a", np.full(3, vrw**2))]
+        parts += [(name, driving[name]) for name in layout.names if name in driving]
+        columns, start = {}, 0
+        for name, psd in parts:
+            columns[name] = slice(start, start + len(psd))
+            start += len(psd)
+        return {"psd": np.concatenate([p for _, p in parts]), "columns": columns}
 
     def initial_covariance(self) -> np.ndarray:
         lay = self.layout
@@ -91,7 +111,9 @@ class FilterConfig:
                 "vel": np.asarray(self.init_vel_sigma_mps, float),
                 "pos": np.asarray(self.init_pos_sigma_m, float),
                 "bg": np.full(3, units.deg_per_hr(self.gyro_bias_sigma_deg_per_hr)),
-                "ba": np.full(3, units.ug(self.accel_bias_sigma_ug))}
+                "ba": np.full(3, units.ug(self.accel_bias_sigma_ug)),
+                "gm": np.full(3, units.deg_per_hr(self.gyro_markov_sigma_deg_per_hr)),
+                "clk": np.array([self.clock_bias_sigma_m, self.clock_drift_sigma_mps])}
         for name in lay.names:
             s = lay.sl(name)
             P[s, s] = np.diag(diag[name] ** 2)

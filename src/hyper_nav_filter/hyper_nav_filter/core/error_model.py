@@ -8,6 +8,11 @@
 (Titterton & Weston ch. 12; seed 003 eqs. 20-21 and seed 001's 15-state
 model in ENU). Biases are first-order Gauss-Markov processes. Errors are
 estimate minus truth; position error is in local ENU metres.
+
+Optional blocks: ``gm``, a first-order Markov gyro drift (seed 000 eqs.
+14-15: gm_dot = -gm / T_g + w_gm, entering phi_dot like the bias), and
+``clk``, the receiver clock bias b (m) and drift d (m/s) (seed 004 eqs. 1-4:
+b_dot = d + w_b, d_dot = w_d).
 """
 from __future__ import annotations
 
@@ -20,11 +25,14 @@ from .state_layout import StateLayout
 
 
 def system_matrices(state: NavState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.ndarray,
-                    layout: StateLayout, gyro_bias_tau_s: float, accel_bias_tau_s: float):
-    """Return F (n x n) and G (n x 12) with noise order (w_g, w_a, w_bg, w_ba)."""
+                    layout: StateLayout, cfg):
+    """Return F (n x n), G (n x m) and the diagonal of the noise PSD Qc (m),
+    for the white noises (w_g, w_a) and one driving noise per random block."""
     n = layout.dim
+    noise = cfg.noise_psd(layout)
     F = np.zeros((n, n))
-    G = np.zeros((n, 12))
+    G = np.zeros((n, len(noise["psd"])))
+    col = noise["columns"]
     lat, h, v = state.lat_rad, state.alt_m, state.vel_enu_mps
     ve, vn, vu = v
     r_m, r_n = earth.radii(lat)
@@ -60,19 +68,28 @@ def system_matrices(state: NavState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.
     F[p, p] = np.array([[vu / rnh - vn * tl / rmh, ve * tl / rmh, -ve / rnh],
                         [0.0, vu / rmh, -vn / rmh],
                         [0.0, 0.0, 0.0]])
-    G[a, 0:3] = -C
-    G[vv, 3:6] = C
+    G[a, col["w_g"]] = -C
+    G[vv, col["w_a"]] = C
     if layout.has("bg"):
         bg = layout.sl("bg")
         F[a, bg] = C
-        F[bg, bg] = -np.eye(3) / gyro_bias_tau_s
-        G[bg, 6:9] = np.eye(3)
+        F[bg, bg] = -np.eye(3) / cfg.gyro_bias_tau_s
+        G[bg, col["bg"]] = np.eye(3)
     if layout.has("ba"):
         ba = layout.sl("ba")
         F[vv, ba] = -C
-        F[ba, ba] = -np.eye(3) / accel_bias_tau_s
-        G[ba, 9:12] = np.eye(3)
-    return F, G
+        F[ba, ba] = -np.eye(3) / cfg.accel_bias_tau_s
+        G[ba, col["ba"]] = np.eye(3)
+    if layout.has("gm"):
+        gm = layout.sl("gm")
+        F[a, gm] = C
+        F[gm, gm] = -np.eye(3) / cfg.gyro_markov_tau_s
+        G[gm, col["gm"]] = np.eye(3)
+    if layout.has("clk"):
+        ck = layout.sl("clk")
+        F[ck.start, ck.start + 1] = 1.0
+        G[ck, col["clk"]] = np.eye(2)
+    return F, G, noise["psd"]
 
 
 def discretize(F, G, Qc_diag, dt_s):

@@ -18,6 +18,7 @@ from .attitude import rotvec_to_C
 from .config import FilterConfig
 from .error_model import discretize, system_matrices
 from .nav_state import ImuSample, NavState
+from .state_layout import BLOCK_SIZES, EXTRA_BLOCKS
 
 
 @dataclass
@@ -52,7 +53,6 @@ class ErrorStateKF:
         self.n_updates = 0
         self.n_rejected = 0
         self.last_nis = float("nan")
-        self._Qc = config.process_noise_psd()
         self._gate = {}
 
     # ---- bookkeeping for re-processing -------------------------------------
@@ -73,9 +73,8 @@ class ErrorStateKF:
         """Mechanize one IMU interval and propagate the covariance."""
         prior = self.state
         dth, dv = mechanization.compensate(imu, prior)
-        F, G = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout,
-                               self.cfg.gyro_bias_tau_s, self.cfg.accel_bias_tau_s)
-        Phi, Q = discretize(F, G, self._Qc, imu.dt_s)
+        F, G, Qc = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout, self.cfg)
+        Phi, Q = discretize(F, G, Qc, imu.dt_s)
         self.state = mechanization.propagate(prior, imu, self.imu_prev, self.vel_prev_enu_mps)
         self.vel_prev_enu_mps = prior.vel_enu_mps
         self.imu_prev = imu
@@ -128,3 +127,6 @@ class ErrorStateKF:
             s.gyro_bias_b_radps = s.gyro_bias_b_radps - dx[lay.sl("bg")]
         if lay.has("ba"):
             s.accel_bias_b_mps2 = s.accel_bias_b_mps2 - dx[lay.sl("ba")]
+        for name in EXTRA_BLOCKS:
+            if lay.has(name):
+                s.extra[name] = s.extra.get(name, np.zeros(BLOCK_SIZES[name])) - dx[lay.sl(name)]

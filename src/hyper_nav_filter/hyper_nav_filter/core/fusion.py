@@ -160,7 +160,7 @@ class FusionEngine:
     def _omega_nb_b(self, imu: ImuSample) -> np.ndarray:
         s = self.kf.state
         w_in = earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.alt_m, s.vel_enu_mps)
-        return imu.dtheta_b_rad / imu.dt_s - s.gyro_bias_b_radps - s.C_b_n.T @ w_in
+        return imu.dtheta_b_rad / imu.dt_s - s.gyro_error_b_radps() - s.C_b_n.T @ w_in
 
     def _trim(self) -> None:
         t_min = self.t_latest_s - self.cfg.reprocess_window_s
@@ -187,5 +187,5 @@ class FusionEngine:
             mode = MODE_LOOSELY_COUPLED
         s = snap.state
         return Solution(t, s.copy(), snap.P.copy(), mode, snap.n_updates, snap.n_rejected, snap.last_nis,
-                        ep.imu.dtheta_b_rad / ep.imu.dt_s - s.gyro_bias_b_radps,
+                        ep.imu.dtheta_b_rad / ep.imu.dt_s - s.gyro_error_b_radps(),
                         ep.imu.dvel_b_mps / ep.imu.dt_s - s.accel_bias_b_mps2)

@@ -60,6 +60,43 @@ class GnssVelocity:
 
 
 @dataclass(frozen=True)
+class BaroHeight:
+    """Barometric altitude (above the ellipsoid, after the pressure-to-height
+    inversion) at epoch t_s, variance in m^2 (seed 003's altitude channel)."""
+    t_s: float
+    alt_m: float
+    var_m2: float
+    kind: str = "baro"
+
+    def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
+        H = np.zeros((1, layout.dim))
+        H[0, layout.sl("pos").start + 2] = 1.0
+        residual = np.array([state.alt_m + state.vel_enu_mps[2] * ctx.dt_to_meas_s - self.alt_m])
+        return residual, H, np.array([[self.var_m2]])
+
+
+@dataclass(frozen=True)
+class HorizontalFix:
+    """Horizontal position fix (e.g. geomagnetic matching, seed 003 eqs.
+    20-26): latitude/longitude with a 2x2 covariance in (E, N) m^2."""
+    t_s: float
+    lat_rad: float
+    lon_rad: float
+    cov_en_m2: np.ndarray
+    kind: str = "horizontal_fix"
+
+    def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
+        d = earth.position_error_enu_m(state.lat_rad, state.lon_rad, state.alt_m,
+                                       self.lat_rad, self.lon_rad, state.alt_m)
+        residual = d[:2] + state.vel_enu_mps[:2] * ctx.dt_to_meas_s
+        H = np.zeros((2, layout.dim))
+        p = layout.sl("pos")
+        H[0, p.start] = 1.0
+        H[1, p.start + 1] = 1.0
+        return residual, H, self.cov_en_m2
+
+
+@dataclass(frozen=True)
 class ModelContext:
     """Quantities a model needs besides the state: the antenna lever arm, the
     body rate relative to ENU, and the measurement epoch minus state epoch."""

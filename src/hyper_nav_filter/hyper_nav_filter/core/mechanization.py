@@ -28,7 +28,7 @@ def sculling_velocity_increment(dtheta_b_rad, dvel_b_mps, dtheta_prev_b_rad, dve
 
 def compensate(imu: ImuSample, state: NavState) -> tuple[np.ndarray, np.ndarray]:
     """Remove the estimated biases from the increments."""
-    return (imu.dtheta_b_rad - state.gyro_bias_b_radps * imu.dt_s,
+    return (imu.dtheta_b_rad - state.gyro_error_b_radps() * imu.dt_s,
             imu.dvel_b_mps - state.accel_bias_b_mps2 * imu.dt_s)
 
 
@@ -77,5 +77,5 @@ def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,
     C1 = rotvec_to_C(-zeta) @ state.C_b_n @ rotvec_to_C(phi_b)
     return NavState(t_s=imu.t_s, lat_rad=lat1, lon_rad=lon1, alt_m=alt1, vel_enu_mps=v1,
                     C_b_n=orthonormalize(C1), gyro_bias_b_radps=state.gyro_bias_b_radps,
-                    accel_bias_b_mps2=state.accel_bias_b_mps2)
+                    accel_bias_b_mps2=state.accel_bias_b_mps2, extra=state.extra)
 

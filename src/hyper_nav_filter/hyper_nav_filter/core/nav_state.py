@@ -30,8 +30,17 @@ class NavState:
     C_b_n: np.ndarray
     gyro_bias_b_radps: np.ndarray = field(default_factory=lambda: np.zeros(3))
     accel_bias_b_mps2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # nominal values of the optional blocks, e.g. {"gm": gyro Markov drift (rad/s),
+    # "clk": [clock bias m, clock drift m/s]}
+    extra: dict = field(default_factory=dict)
 
     def copy(self) -> "NavState":
         return replace(self, vel_enu_mps=self.vel_enu_mps.copy(), C_b_n=self.C_b_n.copy(),
                        gyro_bias_b_radps=self.gyro_bias_b_radps.copy(),
-                       accel_bias_b_mps2=self.accel_bias_b_mps2.copy())
+                       accel_bias_b_mps2=self.accel_bias_b_mps2.copy(),
+                       extra={k: v.copy() for k, v in self.extra.items()})
+
+    def gyro_error_b_radps(self) -> np.ndarray:
+        """Total estimated gyro error: constant bias plus Markov drift."""
+        gm = self.extra.get("gm")
+        return self.gyro_bias_b_radps if gm is None else self.gyro_bias_b_radps + gm

@@ -6,6 +6,8 @@ Blocks (frame, unit):
   pos  position error, ENU, m
   bg   gyro bias error, body, rad/s
   ba   accelerometer bias error, body, m/s^2
+  gm   first-order Markov gyro drift error, body, rad/s (seed 000 eqs. 14-15)
+  clk  receiver clock bias (m) and drift (m/s) error (seed 004 eqs. 1-4)
 Every error is estimate minus truth. Other modules ask the layout for slices
 (``layout.sl("vel")``) and never compute indices themselves.
 """
@@ -13,7 +15,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-BLOCK_SIZES = {"att": 3, "vel": 3, "pos": 3, "bg": 3, "ba": 3}
+BLOCK_SIZES = {"att": 3, "vel": 3, "pos": 3, "bg": 3, "ba": 3, "gm": 3, "clk": 2}
+# Blocks that carry a nominal value besides the navigation state (NavState.extra).
+EXTRA_BLOCKS = ("gm", "clk")
 
 
 @dataclass(frozen=True)
@@ -21,6 +25,9 @@ class StateLayout:
     names: tuple[str, ...]
 
     def __post_init__(self):
+        for required in ("att", "vel", "pos"):
+            if required not in self.names:
+                raise ValueError(f"state blocks must include '{required}', got {self.names}")
         unknown = [n for n in self.names if n not in BLOCK_SIZES]
         if unknown:
             raise ValueError(f"unknown state blocks {unknown}; known: {sorted(BLOCK_SIZES)}")
@@ -48,3 +55,4 @@ class StateLayout:
 
 
 INS_15 = StateLayout(("att", "vel", "pos", "bg", "ba"))
+TIGHT_17 = StateLayout(("att", "vel", "pos", "bg", "ba", "clk"))        # seed 004

@@ -57,8 +57,8 @@ def test_transition_matrix_matches_mechanization_during_a_turn():
         kf_t.P = np.eye(LAY.dim)
         kf_t.cfg = CFG
         from hyper_nav_filter.core.error_model import discretize, system_matrices
-        F, G = system_matrices(kf_t.state, dv[k] / dt, dth[k] / dt, LAY, CFG.gyro_bias_tau_s, CFG.accel_bias_tau_s)
-        Phi, _ = discretize(F, G, CFG.process_noise_psd(), dt)
+        F, G, Qc = system_matrices(kf_t.state, dv[k] / dt, dth[k] / dt, LAY, CFG)
+        Phi, _ = discretize(F, G, Qc, dt)
         Phi_total = Phi @ Phi_total
         kf_t.predict(imu)
         kf_e.predict(imu)
