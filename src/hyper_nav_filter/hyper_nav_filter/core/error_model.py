@@ -25,11 +25,12 @@ from .state_layout import StateLayout
 
 
 def system_matrices(state: NavState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.ndarray,
-                    layout: StateLayout, cfg):
+                    layout: StateLayout, cfg, noise: dict | None = None):
     """Return F (n x n), G (n x m) and the diagonal of the noise PSD Qc (m),
-    for the white noises (w_g, w_a) and one driving noise per random block."""
+    for the white noises (w_g, w_a) and one driving noise per random block.
+    ``noise`` is ``cfg.noise_psd(layout)``, passed in by callers that cache it."""
     n = layout.dim
-    noise = cfg.noise_psd(layout)
+    noise = noise or cfg.noise_psd(layout)
     F = np.zeros((n, n))
     G = np.zeros((n, len(noise["psd"])))
     col = noise["columns"]

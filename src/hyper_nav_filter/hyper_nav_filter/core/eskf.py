@@ -54,6 +54,7 @@ class ErrorStateKF:
         self.n_rejected = 0
         self.last_nis = float("nan")
         self._gate = {}
+        self._noise = config.noise_psd(self.layout)
 
     # ---- bookkeeping for re-processing -------------------------------------
     def snapshot(self) -> FilterSnapshot:
@@ -73,7 +74,8 @@ class ErrorStateKF:
         """Mechanize one IMU interval and propagate the covariance."""
         prior = self.state
         dth, dv = mechanization.compensate(imu, prior)
-        F, G, Qc = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout, self.cfg)
+        F, G, Qc = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout, self.cfg,
+                                    self._noise)
         Phi, Q = discretize(F, G, Qc, imu.dt_s)
         self.state = mechanization.propagate(prior, imu, self.imu_prev, self.vel_prev_enu_mps)
         self.vel_prev_enu_mps = prior.vel_enu_mps
