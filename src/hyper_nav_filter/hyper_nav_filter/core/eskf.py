@@ -53,6 +53,10 @@ class ErrorStateKF:
         self.n_updates = 0
         self.n_rejected = 0
         self.last_nis = float("nan")
+        # per-epoch quantities the RTS smoother needs (see smoother.py)
+        self.last_Phi = np.eye(self.layout.dim)
+        self.P_prior = self.P.copy()
+        self.epoch_dx = np.zeros(self.layout.dim)
         self._gate = {}
         self._noise = config.noise_psd(self.layout)
 
@@ -82,6 +86,8 @@ class ErrorStateKF:
         self.imu_prev = imu
         P = Phi @ self.P @ Phi.T + Q
         self.P = 0.5 * (P + P.T)
+        self.last_Phi, self.P_prior = Phi, self.P.copy()
+        self.epoch_dx = np.zeros(self.layout.dim)
 
     # ---- update -----------------------------------------------------------------
     def gate_threshold(self, dof: int) -> float:
@@ -111,8 +117,13 @@ class ErrorStateKF:
         P = I_KH @ self.P @ I_KH.T + K @ R @ K.T        # Joseph form
         self.P = 0.5 * (P + P.T)
         self._inject(dx)
+        self.epoch_dx = self.epoch_dx + dx
         self.n_updates += 1
         return UpdateResult(kind, t_s, nis, True, residual)
+
+    def inject(self, dx: np.ndarray) -> None:
+        """Public form of the correction: nominal state minus error ``dx``."""
+        self._inject(dx)
 
     def _inject(self, dx: np.ndarray) -> None:
         """Correct the nominal state with the error estimate (estimate - truth)."""

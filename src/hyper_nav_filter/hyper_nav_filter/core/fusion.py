@@ -45,11 +45,17 @@ class _Epoch:
     imu: ImuSample
     snap: FilterSnapshot
     last_update_t_s: float
+    Phi: np.ndarray | None = None        # transition from the previous epoch
+    P_prior: np.ndarray | None = None    # covariance before this epoch's updates
+    dx: np.ndarray | None = None         # sum of the error corrections applied here
 
 
 class FusionEngine:
-    def __init__(self, cfg: FilterConfig, initial: NavState):
+    def __init__(self, cfg: FilterConfig, initial: NavState, keep_history: bool = False):
+        """``keep_history`` stores every epoch for the offline RTS smoother."""
         self.cfg = cfg
+        self.keep_history = keep_history
+        self.history: list[_Epoch] = []
         self.kf = ErrorStateKF(cfg, initial.copy(), cfg.initial_covariance())
         self._base = self.kf.snapshot()          # state before the first stored epoch
         self._base_last_update = -np.inf
@@ -131,6 +137,12 @@ class FusionEngine:
                 self._next_output_t += 1.0 / self.cfg.output_rate_hz
         return out
 
+    def full_history(self) -> list:
+        """Every processed epoch so far (needs keep_history=True)."""
+        if not self.keep_history:
+            raise RuntimeError("FusionEngine(keep_history=True) is needed for the smoother")
+        return self.history + self._epochs
+
     # ---- internals --------------------------------------------------------------
     def _reject(self, reason: str):
         self.counters[f"rejected_{reason}"] += 1
@@ -151,6 +163,8 @@ class FusionEngine:
             if res.accepted:
                 last_update = t_m
         ep = _Epoch(imu, self.kf.snapshot(), last_update)
+        if self.keep_history:
+            ep.Phi, ep.P_prior, ep.dx = self.kf.last_Phi, self.kf.P_prior, self.kf.epoch_dx
         if k == len(self._epochs):
             self._epochs.append(ep)
             self._times.append(imu.t_s)
@@ -169,6 +183,8 @@ class FusionEngine:
                 and self._times[n_drop] < self._next_output_t - 1e-9:
             n_drop += 1
         if n_drop:
+            if self.keep_history:
+                self.history.extend(self._epochs[:n_drop])
             self._base = self._epochs[n_drop - 1].snap
             self._base_last_update = self._epochs[n_drop - 1].last_update_t_s
             del self._epochs[:n_drop]

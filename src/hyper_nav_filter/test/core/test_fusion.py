@@ -101,3 +101,35 @@ def test_bad_input_is_rejected_and_counted():
     assert (c["rejected_imu_nan"], c["rejected_imu_out_of_order"], c["rejected_gnss_pos_nan"],
             c["rejected_gnss_vel_stale"]) == (1, 2, 1, 1)
     assert c["imu_accepted"] == 199
+
+
+def test_rts_smoother_beats_the_filter_on_the_default_scenario():
+    """The fixed-interval smoother's errors are below the forward filter's
+    (measured over 60 s: position 3D RMS 0.36 -> 0.22 m, velocity 0.023 ->
+    0.012 m/s, attitude improves too) and its covariance is smaller."""
+    from hyper_nav_filter.core.smoother import rts_smooth
+    sc = load_scenario("default")
+    traj = sc.trajectory()
+    imu, g = simulate.imu_stream(sc, traj), simulate.gnss_stream(sc, traj)
+    eng = FusionEngine(sc.filter_config(), sc.filter_initial_state(), keep_history=True)
+    j = 0
+    for k in range(60 * 50):
+        eng.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        while j < len(g.t_s) and g.t_s[j] <= imu.t_s[k] + 1e-9:
+            eng.add_measurement(GnssPosition(g.t_s[j], g.lat_rad[j], g.lon_rad[j], g.alt_m[j],
+                                             np.diag(g.pos_sigma_enu_m**2)))
+            eng.add_measurement(GnssVelocity(g.t_s[j], g.vel_enu_mps[j], np.diag(g.vel_sigma_enu_mps**2)))
+            j += 1
+        eng.release()
+    hist = eng.full_history()
+    assert len(hist) == 3000
+    from hyper_nav_filter.core.fusion import Solution
+    filt = [Solution(h.imu.t_s, h.snap.state, h.snap.P, 0, 0, 0, 0.0, np.zeros(3), np.zeros(3)) for h in hist]
+    smooth = rts_smooth(hist, sc.filter_config())
+    f_pos, f_vel, f_att = errors(filt, traj, 10.0)
+    s_pos, s_vel, s_att = errors(smooth, traj, 10.0)
+    print(f"filter {f_pos:.3f} m {f_vel:.4f} m/s {f_att:.4f} deg; smoother {s_pos:.3f} m {s_vel:.4f} m/s {s_att:.4f} deg")
+    assert s_pos < 0.8 * f_pos and s_vel < 0.8 * f_vel and s_att < f_att
+    lay = sc.filter_config().layout
+    mid = len(hist) // 2
+    assert np.trace(smooth[mid].P[lay.sl("pos"), lay.sl("pos")]) < np.trace(hist[mid].snap.P[lay.sl("pos"), lay.sl("pos")])

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..attitude import skew
+from ..attitude import rotvec_to_C, skew
 from ..error_model import discretize  # noqa: F401  (same discretisation, re-exported)
 from ..state_layout import INS_15, StateLayout
 from .frames import LaunchFrame
@@ -104,7 +104,6 @@ def gnss_velocity_ecef(state: LciState, layout: StateLayout, frame: LaunchFrame,
 
 def inject(state: LciState, dx: np.ndarray, layout: StateLayout = INS_15) -> LciState:
     """Correct a nominal LCI state with an error estimate (estimate - truth)."""
-    from ..attitude import rotvec_to_C
     s = state.copy()
     s.C_b_a = rotvec_to_C(dx[layout.sl("att")]) @ s.C_b_a     # C_true = (I + [phi x]) C_est
     s.v_a_mps = s.v_a_mps - dx[layout.sl("vel")]

@@ -135,12 +135,15 @@ def _kepler_E(M, e, iters=12):
     return E
 
 
-def satellite_position_ecef(eph: BroadcastEphemeris, t_s):
+def satellite_position_ecef(eph: BroadcastEphemeris, t_s, dt_s=0.0):
     """Satellite ECEF state and clock from a broadcast record (seed 004 eq. 8, 10;
     IS-GPS-200 Table 20-IV and 20.3.3.3.3.1; BDS-SIS-ICD 5.2.4.12 for GEO).
 
     t_s: continuous seconds in the satellite's system time (GPST for 'G', BDT
-    for 'C'), scalar or array of shape (N,).
+    for 'C'), scalar or array of shape (N,). ``dt_s`` (same shape or scalar) is
+    added to t_s *after* subtracting toe: pass small offsets (e.g. -light time)
+    there, since a float64 continuous time ~1.4e9 s only resolves 2.4e-7 s
+    (0.9 mm of satellite motion).
     Returns ``r_e_m`` (N,3) [m], ``v_e_mps`` (N,3) [m/s] (analytic derivative of
     the same model, in the rotating Earth-fixed frame), ``clock_bias_s`` (N,)
     (af0 + af1 dt + af2 dt^2 + relativistic F e sqrtA sinE; TGD *not* applied) and
@@ -149,10 +152,11 @@ def satellite_position_ecef(eph: BroadcastEphemeris, t_s):
     """
     scalar = np.ndim(t_s) == 0
     t = np.atleast_1d(np.asarray(t_s, float))
+    dt_off = np.broadcast_to(np.atleast_1d(np.asarray(dt_s, float)), t.shape)
     mu, we = constants(eph.system)
     A = eph.sqrtA ** 2
     n = np.sqrt(mu / A ** 3) + eph.delta_n
-    tk = t - eph.toe_s
+    tk = (t - eph.toe_s) + dt_off
     M = eph.M0 + n * tk
     E = _kepler_E(M, eph.e)
     sE, cE = np.sin(E), np.cos(E)
@@ -202,7 +206,7 @@ def satellite_position_ecef(eph: BroadcastEphemeris, t_s):
                         -sa * v_gk[:, 0] + ca * v_gk[:, 1] + we * (-ca * r_gk[:, 0] - sa * r_gk[:, 1]),
                         v_gk[:, 2]], -1)
     F = -2.0 * np.sqrt(mu) / C_MPS ** 2
-    dtc = t - eph.toc_s
+    dtc = (t - eph.toc_s) + dt_off
     clk = eph.af0 + eph.af1 * dtc + eph.af2 * dtc ** 2 + F * eph.e * eph.sqrtA * sE
     clk_dot = eph.af1 + 2.0 * eph.af2 * dtc + F * eph.e * eph.sqrtA * cE * Edot
     if scalar:
@@ -321,23 +325,29 @@ def read_rinex3_nav(path):
     return ephs, iono
 
 
-def shift_ephemeris(eph: BroadcastEphemeris, toe_new_s: float) -> BroadcastEphemeris:
+def shift_ephemeris(eph: BroadcastEphemeris, toe_new_s: float, secular: bool = True) -> BroadcastEphemeris:
     """Same orbit and clock, re-referenced to a new toe (continuous system time):
     M0 += n dt, Omega0 += OmegaDot dt - we dt + we (toe_new_sow - toe_sow),
     i0 += idot dt, clock polynomial re-expanded about toc + dt. Exact for the
     non-GEO model (the Keplerian/secular part; harmonic terms depend only on the
     argument of latitude). For BDS GEO it is exact only if dt is an integer
     number of sidereal days (2 pi / we), because the -5 deg transform is tied to
-    the Earth-fixed frame at toe; :mod:`constellation` respects that."""
+    the Earth-fixed frame at toe; :mod:`constellation` respects that.
+
+    ``secular=False`` ("station-kept", for geosynchronous GEO/IGSO and a shift of
+    whole sidereal days): M0, i0 and the OmegaDot part are *not* advanced, so
+    the Earth-fixed ground track repeats exactly, as station-keeping enforces,
+    instead of drifting with the template's fitted n / OmegaDot (~0.015 deg/day)."""
     mu, we = constants(eph.system)
     dt = toe_new_s - eph.toe_s
     week = int(np.floor(toe_new_s / SECONDS_PER_WEEK))
     toe = toe_new_s - week * SECONDS_PER_WEEK
     n = np.sqrt(mu / eph.sqrtA ** 6) + eph.delta_n
-    om0 = eph.Omega0 + eph.OmegaDot * dt - we * dt + we * (toe - eph.toe)
+    k = 1.0 if secular else 0.0
+    om0 = eph.Omega0 + k * eph.OmegaDot * dt - we * dt + we * (toe - eph.toe)
     om0 = float(np.angle(np.exp(1j * om0)))
-    m0 = float(np.angle(np.exp(1j * (eph.M0 + n * dt))))
+    m0 = float(np.angle(np.exp(1j * (eph.M0 + k * n * dt))))
     toc_new_s = eph.toc_s + dt
     return replace(eph, toe=toe, toc=toc_new_s - week * SECONDS_PER_WEEK, week=week, M0=m0,
-                   Omega0=om0, i0=eph.i0 + eph.idot * dt,
+                   Omega0=om0, i0=eph.i0 + k * eph.idot * dt,
                    af0=eph.af0 + eph.af1 * dt + eph.af2 * dt ** 2, af1=eph.af1 + 2 * eph.af2 * dt)

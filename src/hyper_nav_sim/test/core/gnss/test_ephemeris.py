@@ -52,8 +52,8 @@ def _rms(d, keys):
 
 def test_gps_rinex2_vs_code_final():
     """2021-04-28 18-24 h GPST, 31 PRNs x 73 epochs (2261 points).
-    Measured: 3D RMS 1.72 m, max 5.3 m; clock differences |mean| <= 5.6 ns,
-    RMS over all 2.0 ns."""
+    Measured: 3D RMS 1.72 m, max 5.3 m; clock differences
+    RMS over all 1.9 ns, max 8.2 ns."""
     ephs, alpha, beta = ep.read_rinex2_nav(data.real_file(data.RINEX2))
     assert len(ephs) == 105
     np.testing.assert_allclose(alpha, [0.9313e-8, 0.1490e-7, -0.5960e-7, -0.1192e-6])
@@ -69,11 +69,11 @@ def test_gps_rinex2_vs_code_final():
 
 def test_gps_and_bds_rinex3_vs_gfz_rapid():
     """2023-01-01 00-02 h GPST, 5-min epochs. Measured 3D RMS:
-    GPS 1.59 m; BDS MEO 1.34 m; BDS IGSO 4.0 m (C07 9.6 m, others 1.4-3.1 m);
-    BDS-3 GEO C59/C60 3.6 m; BDS-2 GEO C01-C05 2.5-24.5 m (15.2 m RMS; a constant
+    GPS 1.56 m; BDS MEO 1.27 m; BDS IGSO 3.74 m (C07 9.6 m, others 1.4-3.1 m);
+    BDS-3 GEO C59/C60 3.55 m; BDS-2 GEO C01-C05 2.5-24.5 m (all 7 GEO: 12.7 m RMS; a constant
     per-satellite offset, i.e. broadcast vs precise GEO orbit datum, not a time error:
-    a 14 s BDT/GPST slip would give 40 km on MEO). Clocks: GPS RMS 2 ns;
-    BDS after TGD1 iono-free conversion: per-satellite means -16..+2 ns."""
+    a 14 s BDT/GPST slip would give 40 km on MEO). Clocks: GPS RMS 1.8 ns (max 6.8);
+    BDS after TGD1 iono-free conversion: per-satellite means -16..+2 ns, max 16.6 ns."""
     ephs, iono = ep.read_rinex3_nav(data.real_file(data.RINEX3))
     assert sum(e.system == "G" for e in ephs) == 66
     assert sum(e.system == "C" for e in ephs) == 129
@@ -111,7 +111,7 @@ def test_velocity_and_drift_are_exact_derivatives(sat):
     rm, _, cm, _ = ep.satellite_position_ecef(eph, t - h)
     np.testing.assert_allclose(v, (rp - rm) / (2 * h), atol=1e-5)
     np.testing.assert_allclose(cd, (cp - cm) / (2 * h), atol=1e-15)
-    assert 6.0e6 < np.linalg.norm(r[0]) - 20e6 or np.linalg.norm(r[0]) > 2.5e7
+    assert np.linalg.norm(r[0]) > 2.5e7   # orbit radius: MEO 26.6-27.9e6 m, GEO 42.2e6 m
 
 
 def test_time_scales_and_week_crossover():

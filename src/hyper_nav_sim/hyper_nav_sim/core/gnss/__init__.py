@@ -1,0 +1,26 @@
+"""GNSS (GPS + BeiDou) signal simulation: broadcast ephemerides, synthetic
+constellations, propagation delays, observables, PVT and a tracking-lock model.
+
+Times are continuous seconds (GPST unless a function says "system time"; BDT =
+GPST - 14 s, see ephemeris). Positions/velocities in the Earth-fixed frame (ECEF).
+"""
+from .constellation import (Visibility, elevation_azimuth, is_geosynchronous, synthetic_constellation,
+                            visible_satellites)
+from .ephemeris import (BDS_GEO_PRNS, C_MPS, BroadcastEphemeris, calendar_to_system_s, constants, gpst_s,
+                        read_rinex2_nav, read_rinex3_nav, satellite_position_ecef, select_ephemeris,
+                        shift_ephemeris, system_time_s)
+from .lock import LockConfig, LockModel, vehicle_doppler_hz
+from .observables import CARRIER_HZ, ClockModel, Observables, compute_observables, pr_sigma_m
+from .propagation import F_B1I_HZ, F_L1_HZ, hopfield_delay_m, klobuchar_delay_m
+from .pvt import PvtSolution, solve_pvt
+
+__all__ = [
+    "BDS_GEO_PRNS", "C_MPS", "CARRIER_HZ", "F_B1I_HZ", "F_L1_HZ",
+    "BroadcastEphemeris", "satellite_position_ecef", "select_ephemeris", "shift_ephemeris",
+    "read_rinex2_nav", "read_rinex3_nav", "system_time_s", "gpst_s", "calendar_to_system_s", "constants",
+    "synthetic_constellation", "visible_satellites", "elevation_azimuth", "is_geosynchronous", "Visibility",
+    "klobuchar_delay_m", "hopfield_delay_m",
+    "compute_observables", "Observables", "ClockModel", "pr_sigma_m",
+    "solve_pvt", "PvtSolution",
+    "LockConfig", "LockModel", "vehicle_doppler_hz",
+]
