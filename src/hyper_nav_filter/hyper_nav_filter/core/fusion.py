@@ -65,6 +65,7 @@ class FusionEngine:
         self._seq = 0
         self._next_output_t = initial.t_s
         self._last_released_t = -np.inf
+        self._dirty_from = 10**9
         self.counters: Counter = Counter()
         self.nis_by_kind: dict[str, list[float]] = {}
 
@@ -86,6 +87,7 @@ class FusionEngine:
         if dt > self.cfg.reprocess_window_s:
             return self._reject("imu_gap")
         imu = ImuSample(t_s, dt, dtheta_b_rad, dvel_b_mps)
+        self._catch_up()
         self._process_epoch(len(self._epochs), imu)
         self.counters["imu_accepted"] += 1
         self._trim()
@@ -113,16 +115,25 @@ class FusionEngine:
         bisect.insort(self._meas, (meas.t_s, kind, self._seq, meas))
         self.counters[f"{kind}_received"] += 1
         if self._times and meas.t_s <= self._times[-1] + 1e-9:
+            # re-process lazily: several measurements of one epoch cost one pass
             j = bisect.bisect_left(self._times, meas.t_s - 1e-9)
             if meas.t_s < self._times[-1] - 1e-9:
                 self.counters[f"{kind}_late"] += 1
-            self.counters["epochs_reprocessed"] += len(self._epochs) - j
-            for k in range(j, len(self._epochs)):
-                self._process_epoch(k, self._epochs[k].imu)
+            self._dirty_from = min(self._dirty_from, j)
         return True, "ok"
+
+    def _catch_up(self) -> None:
+        """Re-process the stored epochs from the earliest one a late
+        measurement touched."""
+        if self._dirty_from < len(self._epochs):
+            self.counters["epochs_reprocessed"] += len(self._epochs) - self._dirty_from
+            for k in range(self._dirty_from, len(self._epochs)):
+                self._process_epoch(k, self._epochs[k].imu)
+        self._dirty_from = len(self._epochs) + 10**9
 
     def release(self, final: bool = False) -> list[Solution]:
         """Solutions now older than output_delay_s (all of them when final)."""
+        self._catch_up()
         out = []
         horizon = self.t_latest_s - (0.0 if final else self.cfg.output_delay_s)
         for ep in self._epochs:
@@ -139,6 +150,7 @@ class FusionEngine:
 
     def full_history(self) -> list:
         """Every processed epoch so far (needs keep_history=True)."""
+        self._catch_up()
         if not self.keep_history:
             raise RuntimeError("FusionEngine(keep_history=True) is needed for the smoother")
         return self.history + self._epochs

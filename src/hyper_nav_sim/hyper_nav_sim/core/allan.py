@@ -73,9 +73,20 @@ def arw_from_adev(taus_s, adev, tau_max_s: float = 10.0) -> float:
     return float(np.exp(np.mean(np.log(adev[sel]) + 0.5 * np.log(taus_s[sel]))))
 
 
-def bias_instability_from_minimum(adev) -> float:
-    """Bias instability B = min(ADEV) / 0.664 (IEEE Std 952 flicker floor)."""
-    return float(np.min(adev) / FLICKER_FLOOR)
+def bias_instability_from_minimum(taus_s, adev, arw=None, tau_max_s=None) -> float:
+    """Bias instability B = min(ADEV) / 0.664 (IEEE Std 952 flicker floor).
+
+    ``tau_max_s`` restricts the search to taus with enough clusters (about
+    record / 50: the minimum of noisy long-tau points reads low); with
+    ``arw`` given, its share N^2/tau at the minimum is removed first:
+    B = sqrt(min^2 - N^2 / tau_min) / 0.664 (otherwise it reads high)."""
+    taus_s, adev = np.asarray(taus_s, float), np.asarray(adev, float)
+    sel = np.ones(taus_s.shape, bool) if tau_max_s is None else taus_s <= tau_max_s
+    i = int(np.argmin(adev[sel]))
+    a2 = adev[sel][i] ** 2
+    if arw is not None:
+        a2 = max(a2 - arw**2 / taus_s[sel][i], 0.0)
+    return float(np.sqrt(a2) / FLICKER_FLOOR)
 
 
 def fit_noise_terms(taus_s, adev, rel_sigma=None, tau_range_s=(0.0, np.inf), rate_random_walk=False):

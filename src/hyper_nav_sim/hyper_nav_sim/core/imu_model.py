@@ -208,7 +208,7 @@ def _parse(name, value, kind):
             raise ValueError(f"{name}: expected a number, got {value!r}")
         v = float(value)
         if (kind == "num>=0" and v < 0) or (kind == "num>0" and v <= 0):
-            raise ValueError(f"{name}: must be {kind[3:]} 0, got {v}")
+            raise ValueError(f"{name}: must be {'>=' if kind == 'num>=0' else '>'} 0, got {v}")
         return v
     if kind.startswith("vec3"):
         if _is_num(value):

@@ -90,6 +90,41 @@ class TruthSample:
     heading_rad: np.ndarray
 
 
+def inertial_rates(lat_rad, alt_m, vel_enu_mps, vdot_enu_mps2, C_b_n, omega_nb_b_radps):
+    """Gyro and accelerometer truth from the navigation truth (arrays with a
+    leading time axis): the navigation equations
+
+        omega_ib_b = omega_nb_b + C_n_b (omega_ie_n + omega_en_n)
+        f_b        = C_n_b (dv_n/dt + (2 omega_ie_n + omega_en_n) x v_n - g_n)
+
+    with the Earth model of ``hyper_nav_filter.core.earth``. Shared by every
+    trajectory generator so that all of them are consistent with the ENU
+    mechanization. Returns (omega_ib_b_radps, f_b_mps2), each (N, 3)."""
+    w_ie = earth.omega_ie_n(lat_rad)
+    w_en = earth.omega_en_n(lat_rad, alt_m, vel_enu_mps)
+    g_n = earth.gravity_n(lat_rad, alt_m)
+    C_n_b = np.transpose(C_b_n, (0, 2, 1))
+    omega_ib_b = omega_nb_b_radps + np.einsum("kij,kj->ki", C_n_b, w_ie + w_en)
+    f_n = vdot_enu_mps2 + np.cross(2.0 * w_ie + w_en, vel_enu_mps) - g_n
+    f_b = np.einsum("kij,kj->ki", C_n_b, f_n)
+    return omega_ib_b, f_b
+
+
+def gauss_legendre_increments(truth, t_end_s, dt_s):
+    """Exact IMU increments (dtheta_b_rad, dvel_b_mps), each (N, 3), over the
+    intervals (t - dt, t] for the epochs ``t_end_s``: 4-point Gauss-Legendre
+    quadrature of ``truth(t).omega_ib_b_radps`` and ``truth(t).f_b_mps2``
+    (``truth`` is a callable returning a :class:`TruthSample`)."""
+    t_end_s = np.asarray(t_end_s, dtype=float)
+    mid = t_end_s - 0.5 * dt_s
+    tq = (mid[:, None] + 0.5 * dt_s * _GL_X[None, :]).ravel()
+    tr = truth(tq)
+    w = (0.5 * dt_s * _GL_W)[None, :, None]
+    dth = (tr.omega_ib_b_radps.reshape(-1, 4, 3) * w).sum(axis=1)
+    dv = (tr.f_b_mps2.reshape(-1, 4, 3) * w).sum(axis=1)
+    return dth, dv
+
+
 class Trajectory:
     """Deterministic truth: every node that builds it from the same scenario
     gets the same flight, so sensor nodes need no high-rate truth stream."""
@@ -152,24 +187,11 @@ class Trajectory:
         ad, bd, cd = -psid, -pitchd, rolld
         sb, cb, sc, cc = np.sin(-pitch), np.cos(-pitch), np.sin(roll), np.cos(roll)
         omega_nb_b = np.stack([cd - ad * sb, bd * cc + ad * cb * sc, -bd * sc + ad * cb * cc], axis=-1)
-        w_ie = earth.omega_ie_n(lat)
-        w_en = earth.omega_en_n(lat, alt, vel)
-        g_n = earth.gravity_n(lat, alt)
-        C_n_b = np.transpose(C_b_n, (0, 2, 1))
-        omega_ib_b = omega_nb_b + np.einsum("kij,kj->ki", C_n_b, w_ie + w_en)
-        f_n = vdot + np.cross(2.0 * w_ie + w_en, vel) - g_n
-        f_b = np.einsum("kij,kj->ki", C_n_b, f_n)
+        omega_ib_b, f_b = inertial_rates(lat, alt, vel, vdot, C_b_n, omega_nb_b)
         return TruthSample(t, lat, lon, alt, vel, C_b_n, omega_ib_b, f_b, roll, pitch, np.mod(psi, 2 * np.pi))
 
     def imu_increments(self, t_end_s, dt_s):
         """Exact increments (dtheta_b_rad, dvel_b_mps), each (N, 3), over the
         intervals (t - dt, t] for the epochs ``t_end_s``; 4-point Gauss-Legendre."""
-        t_end_s = np.asarray(t_end_s, dtype=float)
-        mid = t_end_s - 0.5 * dt_s
-        tq = (mid[:, None] + 0.5 * dt_s * _GL_X[None, :]).ravel()
-        tr = self.truth(tq)
-        w = (0.5 * dt_s * _GL_W)[None, :, None]
-        dth = (tr.omega_ib_b_radps.reshape(-1, 4, 3) * w).sum(axis=1)
-        dv = (tr.f_b_mps2.reshape(-1, 4, 3) * w).sum(axis=1)
-        return dth, dv
+        return gauss_legendre_increments(self.truth, t_end_s, dt_s)
 

@@ -1,0 +1,376 @@
+"""Elastic dynamic lever arm of the IMU (seed 000, Yang et al., section II.B).
+
+The vehicle is a free-free slender beam; its transverse deflection is a sum
+of natural modes (eq. 2/7)  y(x, t) = sum_i q_i(t) W_i(x),  i = 1..3,  and each
+generalized coordinate obeys (eq. 3, with eq. 6's noise w_qi)::
+
+    q_i'' + 2 zeta_i w_i q_i' + w_i^2 q_i = Q_i / M_i + w_qi,
+
+    Q_i = int_0^l f_yb(x) W_i(x) dx,   M_i = int_0^l m(x) W_i(x)^2 dx   (eq. 4).
+
+Generalized force: the normal load is taken as F_n(t) * p(x) (a given total
+normal force with a fixed distribution), so Q_i = phi_i F_n(t) with
+``load_participation`` phi_i = int p W_i dx (= W_i(x_cp) for a load
+concentrated at the centre of pressure). Gravity in eq. 5 acts in
+proportion to the mass and, like the rigid-body inertial load, is
+orthogonal to the elastic modes of a free-free beam, so it gives no Q_i;
+thrust is axial. ``normal_force_from_trajectory`` gives F_n = m f_b,z (the
+aerodynamic normal specific force along body up times the vehicle mass).
+
+Lever arm at the IMU (eq. 8, 12)::
+
+    r_A = r_A0 + Y q,   r_A' = Y q',   r_A'' = Y q''   (eq. 9-11: q'' = K1 q' + K2 q + u_q + w_q),
+    Y = e_d [W_1(x_A) W_2(x_A) W_3(x_A)]   (3 x 3),
+
+e_d the body deflection axis. Eq. 12 puts the deflection in the second
+row, the O_bY_b normal axis of the paper's body frame (x forward, y up,
+z right); in this project's body FLU that is +z, the default ``deflection_axis_b``.
+
+Accelerometer error (eq. 1 / 13), all four terms kept, as in the paper::
+
+    nabla_lever = r'' + 2 w_ib x r' + w_ib' x r + w_ib x (w_ib x r),  r = r_A0 + Y q.
+
+Natural frequencies: Table 2 initial values (20.8453, 50.0123, 98.7743 rad/s)
+drift linearly to the Table 4 values (20.1658, 55.3610, 113.0664 rad/s)
+over ``freq_drift_time_s`` (the paper gives the end points only; the linear
+profile is our choice). Damping ratios, mode shapes, generalized masses and
+load participation are not given in the paper: defaults are a uniform
+free-free beam (beta_i l = 4.7300, 7.8532, 10.9956, modes normalised to
+mean(W^2) = 1 so that M_i = vehicle mass), IMU at x/l = 0.30 from the nose,
+centre of pressure at x/l = 0.55, 2 % damping, 1000 kg.
+
+Integration: exact discretisation (closed form for the under-damped
+oscillator, zeta < 1) per IMU interval, with w_i and zeta_i frozen at the
+interval midpoint and the force linear between the interval ends
+(first-order hold); int q dt is carried along, so the velocity increment of
+the r'' term (Y dq') and the integrals of r needed by the w' x r and
+w x w x r terms are exact for that force. The frequency drift is thus a
+staircase in the stiffness, equivalent to force steps d(w^2) q: about
+1e-6 m/s in q' (1e-8 m in q) of mode 3 at 50 Hz with the defaults. The rotation terms use w_ib at the start,
+middle and end of the interval (see ``lever_arm_dvel``).
+Only the accelerometers see the lever arm, as in the paper (eq. 14); the
+rotation of the IMU station by the mode slopes W_i'(x_A) q_i' is not
+added to the gyros.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import expm
+
+TABLE2_FREQ_RADPS = (20.8453, 50.0123, 98.7743)
+TABLE4_FREQ_RADPS = (20.1658, 55.3610, 113.0664)
+_FREE_FREE_BETA_L = (4.730040745, 7.853204624, 10.995607838)
+
+
+def free_free_beam_mode_shapes(x_over_l) -> np.ndarray:
+    """First three bending mode shapes W_i of a uniform free-free beam at
+    stations x/l (0 = nose), normalised to mean(W^2) = 1 over the length
+    (then M_i = total mass). Shape (..., 3)."""
+    xi = np.asarray(x_over_l, float)[..., None]
+    bl = np.asarray(_FREE_FREE_BETA_L)
+    sig = (np.cosh(bl) - np.cos(bl)) / (np.sinh(bl) - np.sin(bl))
+    z = bl * xi
+    return np.cosh(z) + np.cos(z) - sig * (np.sinh(z) + np.sin(z))
+
+
+_DEFAULTS = {
+    "enabled": True,
+    "r0_b_m": [0.0, 0.0, 0.0],
+    "natural_freq_initial_radps": list(TABLE2_FREQ_RADPS),
+    "natural_freq_final_radps": list(TABLE4_FREQ_RADPS),
+    "freq_drift_time_s": 300.0,
+    "damping_ratio": [0.02, 0.02, 0.02],
+    "mode_shape_at_imu": free_free_beam_mode_shapes(0.30).tolist(),
+    "deflection_axis_b": [0.0, 0.0, 1.0],
+    "generalized_mass_kg": [1000.0, 1000.0, 1000.0],
+    "load_participation": free_free_beam_mode_shapes(0.55).tolist(),
+    "vehicle_mass_kg": 1000.0,
+    "modal_noise_per_sqrt_hz": [0.0, 0.0, 0.0],
+    "start_at_equilibrium": True,
+}
+
+
+def _num(name, v, positive=False, nonneg=False):
+    if not (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and np.isfinite(v)):
+        raise ValueError(f"{name}: expected a number, got {v!r}")
+    if positive and v <= 0:
+        raise ValueError(f"{name}: must be > 0, got {v}")
+    if nonneg and v < 0:
+        raise ValueError(f"{name}: must be >= 0, got {v}")
+    return float(v)
+
+
+def _vec3(name, v, positive=False, nonneg=False):
+    if not (isinstance(v, (list, tuple, np.ndarray)) and len(v) == 3):
+        raise ValueError(f"{name}: expected a list of 3 numbers, got {v!r}")
+    return np.array([_num(name, x, positive, nonneg) for x in v])
+
+
+def _damping(name, v):
+    z = _vec3(name, v, nonneg=True)
+    if np.any(z >= 1.0):
+        raise ValueError(f"{name}: structural modes are under-damped, need < 1, got {z.tolist()}")
+    return z
+
+
+@dataclass(frozen=True)
+class LeverArmConfig:
+    enabled: bool
+    r0_b_m: np.ndarray                      # rigid lever arm CG -> IMU, body FLU [m]
+    natural_freq_initial_radps: np.ndarray  # Table 2
+    natural_freq_final_radps: np.ndarray    # Table 4
+    freq_drift_time_s: float
+    damping_ratio: np.ndarray
+    mode_shape_at_imu: np.ndarray           # W_i(x_A), dimensionless
+    deflection_axis_b: np.ndarray           # unit vector, body FLU
+    generalized_mass_kg: np.ndarray
+    load_participation: np.ndarray          # phi_i: Q_i = phi_i F_n
+    vehicle_mass_kg: float
+    modal_noise_per_sqrt_hz: np.ndarray     # w_qi PSD^(1/2), [q units / s^2 / sqrt(Hz)]
+    start_at_equilibrium: bool
+
+    @classmethod
+    def from_config(cls, d: dict | None, prefix: str = "lever_arm") -> "LeverArmConfig":
+        """From the ``lever_arm:`` block (all fields optional, defaults in
+        ``_DEFAULTS``); ValueError names a bad field."""
+        d = {} if d is None else d
+        if not isinstance(d, dict):
+            raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
+        for k in d:
+            if k not in _DEFAULTS:
+                raise ValueError(f"{prefix}.{k}: unknown field (known: {sorted(_DEFAULTS)})")
+        g = {**_DEFAULTS, **d}
+        n = lambda k: f"{prefix}.{k}"  # noqa: E731
+        for k in ("enabled", "start_at_equilibrium"):
+            if not isinstance(g[k], bool):
+                raise ValueError(f"{n(k)}: expected true or false, got {g[k]!r}")
+        axis = _vec3(n("deflection_axis_b"), g["deflection_axis_b"])
+        if np.linalg.norm(axis) == 0:
+            raise ValueError(f"{n('deflection_axis_b')}: must be non-zero")
+        return cls(
+            enabled=g["enabled"],
+            r0_b_m=_vec3(n("r0_b_m"), g["r0_b_m"]),
+            natural_freq_initial_radps=_vec3(n("natural_freq_initial_radps"), g["natural_freq_initial_radps"],
+                                             positive=True),
+            natural_freq_final_radps=_vec3(n("natural_freq_final_radps"), g["natural_freq_final_radps"],
+                                           positive=True),
+            freq_drift_time_s=_num(n("freq_drift_time_s"), g["freq_drift_time_s"], nonneg=True),
+            damping_ratio=_damping(n("damping_ratio"), g["damping_ratio"]),
+            mode_shape_at_imu=_vec3(n("mode_shape_at_imu"), g["mode_shape_at_imu"]),
+            deflection_axis_b=axis / np.linalg.norm(axis),
+            generalized_mass_kg=_vec3(n("generalized_mass_kg"), g["generalized_mass_kg"], positive=True),
+            load_participation=_vec3(n("load_participation"), g["load_participation"]),
+            vehicle_mass_kg=_num(n("vehicle_mass_kg"), g["vehicle_mass_kg"], positive=True),
+            modal_noise_per_sqrt_hz=_vec3(n("modal_noise_per_sqrt_hz"), g["modal_noise_per_sqrt_hz"], nonneg=True),
+            start_at_equilibrium=g["start_at_equilibrium"],
+        )
+
+    @property
+    def Y(self) -> np.ndarray:
+        """Mode-shape matrix of eq. 12 in body FLU: r = r0 + Y q."""
+        return np.outer(self.deflection_axis_b, self.mode_shape_at_imu)
+
+    def natural_freq_radps(self, t_s) -> np.ndarray:
+        """w_i(t), shape (..., 3): Table 2 values drifting linearly to Table 4
+        values over freq_drift_time_s (constant afterwards)."""
+        t = np.asarray(t_s, float)[..., None]
+        if self.freq_drift_time_s <= 0.0:
+            frac = np.ones_like(t)
+        else:
+            frac = np.clip(t / self.freq_drift_time_s, 0.0, 1.0)
+        w0, w1 = self.natural_freq_initial_radps, self.natural_freq_final_radps
+        return w0 + frac * (w1 - w0)
+
+    def modal_force_per_mass(self, load_n) -> np.ndarray:
+        """u_qi = Q_i / M_i for a normal load F_n [N] (shape (..., 3))."""
+        return np.asarray(load_n, float)[..., None] * self.load_participation / self.generalized_mass_kg
+
+
+@dataclass
+class ModalResponse:
+    """Modal state at the epochs t_s (end of each interval) and the lever arm
+    at the IMU in body FLU. ``q_int`` is int q dt over the interval ending at t."""
+    t_s: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    qddot: np.ndarray
+    q_int: np.ndarray
+    q0: np.ndarray           # state at the start of the first interval
+    qdot0: np.ndarray
+    r_b_m: np.ndarray
+    rdot_b_mps: np.ndarray
+    rddot_b_mps2: np.ndarray
+
+
+def _zoh_matrices_expm(w, zeta, h):
+    """Reference (slow) ZOH transition by the Van Loan matrix exponential."""
+    shape = np.shape(w)
+    F = np.zeros(shape + (4, 4))
+    F[..., 0, 1] = 1.0
+    F[..., 1, 2] = 1.0
+    F[..., 2, 1] = -np.asarray(w) ** 2
+    F[..., 2, 2] = -2.0 * np.asarray(zeta) * np.asarray(w)
+    F[..., 2, 3] = 1.0
+    E = expm((F * h).reshape(-1, 4, 4)).reshape(shape + (4, 4))
+    return E[..., :3, :3], E[..., :3, 3]
+
+
+def _zoh_matrices(w, zeta, h):
+    """Exact ZOH transition of [s, q, q'] (s = int q over the step) for an
+    under-damped mode (zeta < 1), stacks of w, zeta, step h, in closed form:
+    with sigma = zeta w, w_d = w sqrt(1 - zeta^2), e = exp(-sigma h),
+    q(h) - q_p = e [cos(w_d h) + sigma/w_d sin(w_d h)] (q0 - q_p) + e sin(w_d h)/w_d q0',
+    q_p = u / w^2, and int q dt follows from the ODE itself:
+    w^2 int (q - q_p) dt = -(q'(h) - q0') - 2 sigma (q(h) - q0).
+    Returns Phi (..., 3, 3), Gamma (..., 3)."""
+    w, zeta = np.broadcast_arrays(np.asarray(w, float), np.asarray(zeta, float))
+    sg = zeta * w
+    wd = w * np.sqrt(1.0 - zeta**2)
+    e = np.exp(-sg * h)
+    c, sn = np.cos(wd * h), np.sin(wd * h)
+    w2 = w**2
+    p_qq = e * (c + sg / wd * sn)
+    p_qv = e * sn / wd
+    p_vq = -e * w2 / wd * sn
+    p_vv = e * (c - sg / wd * sn)
+    Phi = np.zeros(w.shape + (3, 3))
+    Phi[..., 0, 0] = 1.0
+    Phi[..., 0, 1] = -(p_vq + 2.0 * sg * (p_qq - 1.0)) / w2
+    Phi[..., 0, 2] = -((p_vv - 1.0) + 2.0 * sg * p_qv) / w2
+    Phi[..., 1, 1], Phi[..., 1, 2], Phi[..., 2, 1], Phi[..., 2, 2] = p_qq, p_qv, p_vq, p_vv
+    g_q = (1.0 - p_qq) / w2
+    g_v = -p_vq / w2
+    Gam = np.stack([(h - g_v - 2.0 * sg * g_q) / w2, g_q, g_v], axis=-1)
+    return Phi, Gam
+
+
+def simulate_modes(cfg: LeverArmConfig, t_end_s, dt_s: float, load_n_at, rng=None,
+                   q0=None, qdot0=None) -> ModalResponse:
+    """Integrate the three modal equations (eq. 3/6) over the uniform
+    intervals (t - dt, t] ending at ``t_end_s``. ``load_n_at(t)`` is the normal
+    load F_n [N] (vectorised over t), taken linear between the interval ends
+    (first-order hold, so the sampling does not itself excite the modes);
+    the optional modal noise w_q is held constant over each interval. Exact
+    solution per interval for that force with w_i, zeta_i frozen at the
+    interval midpoint: for u = a + b t the particular solution is
+    q_p = (a + b t) / w^2 - 2 sigma b / w^4, the rest is the free response
+    (``_zoh_matrices``). Initial state at the start of the first interval:
+    q0, qdot0 if given, else the static equilibrium u_q / w^2
+    (``start_at_equilibrium``) or rest."""
+    t_end = np.asarray(t_end_s, float)
+    n = len(t_end)
+    t_mid = t_end - 0.5 * dt_s
+    t_start = t_end[0] - dt_s
+    w_mid = cfg.natural_freq_radps(t_mid)                       # (n, 3)
+    zeta = np.broadcast_to(cfg.damping_ratio, w_mid.shape)
+    u_nodes = cfg.modal_force_per_mass(load_n_at(np.concatenate([[t_start], t_end])))   # (n + 1, 3)
+    a_all = u_nodes[:-1].copy()
+    b_all = (u_nodes[1:] - u_nodes[:-1]) / dt_s
+    if np.any(cfg.modal_noise_per_sqrt_hz > 0.0):
+        if rng is None:
+            raise ValueError("lever_arm.modal_noise_per_sqrt_hz > 0 needs a numpy Generator")
+        a_all += rng.standard_normal((n, 3)) * cfg.modal_noise_per_sqrt_hz / np.sqrt(dt_s)
+    Phi, _ = _zoh_matrices(w_mid, zeta, dt_s)                   # (n, 3, 3, 3)
+    pqq, pqv, pvq, pvv = Phi[..., 1, 1], Phi[..., 1, 2], Phi[..., 2, 1], Phi[..., 2, 2]
+    w2 = w_mid**2
+    sg = zeta * w_mid
+    if q0 is None:
+        w0 = cfg.natural_freq_radps(t_start)
+        q0 = u_nodes[0] / w0**2 if cfg.start_at_equilibrium else np.zeros(3)
+    q0 = np.asarray(q0, float)
+    qdot0 = np.zeros(3) if qdot0 is None else np.asarray(qdot0, float)
+    q, qd, qi = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    h = dt_s
+    # per-interval constants of the particular (ramp) solution
+    qp0 = a_all / w2 - 2.0 * sg * b_all / w2**2
+    qp1 = qp0 + b_all * h / w2
+    vp = b_all / w2
+    qp_int = (a_all * h + 0.5 * b_all * h * h) / w2 - 2.0 * sg * b_all * h / w2**2
+    x_q, x_v = q0.copy(), qdot0.copy()
+    for k in range(n):
+        y0 = x_q - qp0[k]
+        yd0 = x_v - vp[k]
+        y1 = pqq[k] * y0 + pqv[k] * yd0
+        yd1 = pvq[k] * y0 + pvv[k] * yd0
+        qi[k] = qp_int[k] - ((yd1 - yd0) + 2.0 * sg[k] * (y1 - y0)) / w2[k]
+        x_q = qp1[k] + y1
+        x_v = vp[k] + yd1
+        q[k], qd[k] = x_q, x_v
+    w_end = cfg.natural_freq_radps(t_end)
+    u_end = u_nodes[1:] + (a_all - u_nodes[:-1])               # + the held noise, if any
+    qdd = -2.0 * cfg.damping_ratio * w_end * qd - w_end**2 * q + u_end
+    Y = cfg.Y
+    return ModalResponse(t_end, q, qd, qdd, qi, q0, qdot0,
+                         cfg.r0_b_m + q @ Y.T, qd @ Y.T, qdd @ Y.T)
+
+
+def lever_arm_specific_force(r_b_m, rdot_b_mps, rddot_b_mps2, omega_ib_b_radps, omegadot_ib_b_radps2):
+    """Eq. 1: r'' + 2 w x r' + w' x r + w x (w x r) (all four terms), (..., 3)."""
+    w = omega_ib_b_radps
+    return (rddot_b_mps2 + 2.0 * np.cross(w, rdot_b_mps) + np.cross(omegadot_ib_b_radps2, r_b_m)
+            + np.cross(w, np.cross(w, r_b_m)))
+
+
+def lever_arm_dvel(cfg: LeverArmConfig, resp: ModalResponse, dt_s: float,
+                   omega_start_radps, omega_mid_radps, omega_end_radps) -> np.ndarray:
+    """Integral of eq. 1 over each interval, (N, 3) [m/s], from w_ib at the
+    start, middle and end of each interval:
+
+        Y dq'                                   (r'', exact for the ZOH force)
+      + 2 w_mid x (Y dq)                        (Coriolis, int r' = dr exactly)
+      + dw x r0 + (dw / dt) x (Y int q)         (Euler; int w' = dw exactly, so a
+                                                 jump of w' inside the interval is kept)
+      + Simpson(w x (w x r0)) + w_mid x (w_mid x Y int q)   (centripetal)."""
+    Y = cfg.Y
+    q_prev = np.vstack([resp.q0[None, :], resp.q[:-1]])
+    qd_prev = np.vstack([resp.qdot0[None, :], resp.qdot[:-1]])
+    d_rdot = (resp.qdot - qd_prev) @ Y.T
+    d_r = (resp.q - q_prev) @ Y.T
+    r_el = resp.q_int @ Y.T
+    w0, wm, w1 = omega_start_radps, omega_mid_radps, omega_end_radps
+    dw = w1 - w0
+    r0 = cfg.r0_b_m
+    cent0 = sum(c * np.cross(w, np.cross(w, r0)) for c, w in ((1.0, w0), (4.0, wm), (1.0, w1))) * dt_s / 6.0
+    return (d_rdot + 2.0 * np.cross(wm, d_r) + np.cross(dw, r0) + np.cross(dw / dt_s, r_el)
+            + cent0 + np.cross(wm, np.cross(wm, r_el)))
+
+
+def normal_force_from_trajectory(traj, mass_kg: float):
+    """F_n(t) = m f_b,z(t): aerodynamic normal force along body up [N]."""
+    def load(t):
+        return mass_kg * traj.truth(np.atleast_1d(t)).f_b_mps2[:, 2]
+    return load
+
+
+def body_rates_at(traj, t_s, h_s: float = 1e-3):
+    """(omega_ib_b, d omega_ib_b / dt) at times t from the truth (central difference)."""
+    t = np.asarray(t_s, float)
+    tr = traj.truth(np.concatenate([t - h_s, t, t + h_s])).omega_ib_b_radps
+    n = len(t)
+    return tr[n:2 * n], (tr[2 * n:] - tr[:n]) / (2.0 * h_s)
+
+
+def interval_rates(traj, t_end_s, dt_s: float):
+    """omega_ib_b at the start, middle and end of each interval (t - dt, t]."""
+    t = np.asarray(t_end_s, float)
+    n = len(t)
+    w = traj.truth(np.concatenate([t - dt_s, t - 0.5 * dt_s, t])).omega_ib_b_radps
+    return w[:n], w[n:2 * n], w[2 * n:]
+
+
+def add_lever_arm_to_increments(dvel_b_mps, t_end_s, dt_s: float, traj, cfg: LeverArmConfig,
+                                load_n_at=None, rng=None, return_response: bool = False):
+    """Velocity increments of the IMU at the elastic lever arm: the exact
+    (CG) increments plus the integral of eq. 1 over each interval. With
+    ``cfg.enabled`` false the input array is returned unchanged. The
+    default load is ``normal_force_from_trajectory(traj, cfg.vehicle_mass_kg)``."""
+    if not cfg.enabled:
+        return (dvel_b_mps, None) if return_response else dvel_b_mps
+    if load_n_at is None:
+        load_n_at = normal_force_from_trajectory(traj, cfg.vehicle_mass_kg)
+    t_end = np.asarray(t_end_s, float)
+    resp = simulate_modes(cfg, t_end, dt_s, load_n_at, rng)
+    out = dvel_b_mps + lever_arm_dvel(cfg, resp, dt_s, *interval_rates(traj, t_end, dt_s))
+    return (out, resp) if return_response else out
