@@ -25,6 +25,8 @@ setup(
             "imu_node = hyper_nav_sim.nodes.imu_node:main",
             "gnss_node = hyper_nav_sim.nodes.gnss_node:main",
             "mag_node = hyper_nav_sim.nodes.mag_node:main",
+            "baro_node = hyper_nav_sim.nodes.baro_node:main",
+            "radar_node = hyper_nav_sim.nodes.radar_node:main",
             "recorder = hyper_nav_sim.nodes.recorder:main",
             "player = hyper_nav_sim.nodes.player:main",
             "run_graph = hyper_nav_sim.graph:main",

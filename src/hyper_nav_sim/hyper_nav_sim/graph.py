@@ -41,12 +41,15 @@ from hyper_nav_filter.core.attitude import C_to_quat_xyzw
 
 from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 
-SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"]}
+SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
+                 "baro": ["baro/pressure"], "radar": ["radar/track"]}
+OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
 FUSION_INPUTS = {"imu/data_raw", "gnss/fix", "gnss/vel"}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
+               "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
                "player": ("hyper_nav_sim", "player")}
 
@@ -79,6 +82,7 @@ def apply_overrides(sc: Scenario, overrides: dict | None, workdir: pathlib.Path)
 def fusion_parameters(sc: Scenario) -> dict:
     """The fusion node's ROS parameters, all derived from the scenario."""
     init = sc.filter_initial_state()
+    start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
     params = {f"filter.{k}": list(v) if isinstance(v, tuple) else v
               for k, v in vars(sc.filter_config()).items() if k != "layout"}
     params.update({
@@ -86,15 +90,15 @@ def fusion_parameters(sc: Scenario) -> dict:
         "init.lon_deg": float(np.rad2deg(init.lon_rad)), "init.alt_m": float(init.alt_m),
         "init.vel_enu_mps": [float(x) for x in init.vel_enu_mps],
         "init.q_b_enu_xyzw": [float(x) for x in C_to_quat_xyzw(init.C_b_n)],
-        "origin.lat_deg": float(sc["start.lat_deg"]), "origin.lon_deg": float(sc["start.lon_deg"]),
-        "origin.alt_m": float(sc["start.alt_m"]), "qos.depth": int(sc["graph.qos_depth"]),
+        "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
+        "origin.alt_m": float(start.alt_m[0]), "qos.depth": int(sc["graph.qos_depth"]),
     })
     return params
 
 
 class Graph:
     def __init__(self, scenario: str | Scenario = "default", record: str | os.PathLike | None = None,
-                 nodes=DEFAULT_NODES, overrides: dict | None = None,
+                 nodes=None, overrides: dict | None = None,
                  extra_subscribers: dict[str, int] | None = None, node_params: dict | None = None,
                  log_dir: str | os.PathLike | None = None, domain_id: int | None = None):
         base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
@@ -102,6 +106,9 @@ class Graph:
         self.workdir = pathlib.Path(self._tmp.name)
         self.scenario = apply_overrides(base, overrides, self.workdir)
         self.record = pathlib.Path(record) if record else None
+        if nodes is None:
+            nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
+                                               if block in self.scenario.data) + ("fusion",)
         self.nodes = tuple(nodes)
         self.extra = dict(extra_subscribers or {})
         self.node_params = node_params or {}
@@ -235,7 +242,8 @@ def _main(argv=None) -> int:
     ap.add_argument("--report", action="store_true", help="print the accuracy report from the bag")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="override a scenario field, e.g. --set duration_s=60 (YAML value)")
-    ap.add_argument("--nodes", default=",".join(DEFAULT_NODES))
+    ap.add_argument("--nodes", default=None, help="comma-separated node names (default: every node the "
+                    "scenario needs: truth, imu, gnss, mag, baro/radar when configured, fusion)")
     args = ap.parse_args(argv)
     overrides = {}
     for item in args.set:
@@ -247,7 +255,7 @@ def _main(argv=None) -> int:
         record = f"{record}_{stamp}"
         print(f"[run_graph] {args.record} exists; recording to {record}")
     t0 = time.monotonic()
-    with Graph(args.scenario, record=record, nodes=args.nodes.split(","), overrides=overrides,
+    with Graph(args.scenario, record=record, nodes=args.nodes.split(",") if args.nodes else None, overrides=overrides,
                log_dir=pathlib.Path(record).with_name(pathlib.Path(record).name + "_logs") if record else None) as g:
         print(f"[run_graph] scenario {g.scenario.name}: {g.scenario['duration_s']} s at "
               f"{g.scenario['graph.real_time_factor']}x real time; nodes: {', '.join(g.nodes)}")

@@ -90,6 +90,11 @@ class ErrorStateKF:
         self.epoch_dx = np.zeros(self.layout.dim)
 
     # ---- update -----------------------------------------------------------------
+    def model(self, meas, ctx):
+        """(residual, H, R) of a measurement for the current state; a filter in
+        another mechanization frame overrides this to use its own models."""
+        return meas.model(self.state, self.layout, ctx)
+
     def gate_threshold(self, dof: int) -> float:
         if dof not in self._gate:
             self._gate[dof] = float(chi2.ppf(self.cfg.gate_probability, dof))

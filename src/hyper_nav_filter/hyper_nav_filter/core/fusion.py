@@ -27,6 +27,11 @@ from .nav_state import ImuSample, NavState
 MODE_INITIALIZING, MODE_INS_ONLY, MODE_LOOSELY_COUPLED = 1, 2, 3
 
 
+def make_filter(cfg: FilterConfig, initial: NavState):
+    """The error-state filter of the configured mechanization frame."""
+    return ErrorStateKF(cfg, initial, cfg.initial_covariance())
+
+
 @dataclass
 class Solution:
     t_s: float
@@ -56,7 +61,7 @@ class FusionEngine:
         self.cfg = cfg
         self.keep_history = keep_history
         self.history: list[_Epoch] = []
-        self.kf = ErrorStateKF(cfg, initial.copy(), cfg.initial_covariance())
+        self.kf = make_filter(cfg, initial.copy())
         self._base = self.kf.snapshot()          # state before the first stored epoch
         self._base_last_update = -np.inf
         self._epochs: list[_Epoch] = []
@@ -171,7 +176,7 @@ class FusionEngine:
         omega_nb_b = self._omega_nb_b(imu)
         for t_m, kind, _, meas in self._meas[lo:hi]:
             ctx = ModelContext(np.asarray(self.cfg.antenna_lever_arm_b_m, float), omega_nb_b, t_m - imu.t_s)
-            res = self.kf.update(kind, t_m, *meas.model(self.kf.state, self.cfg.layout, ctx))
+            res = self.kf.update(kind, t_m, *self.kf.model(meas, ctx))
             if res.accepted:
                 last_update = t_m
         ep = _Epoch(imu, self.kf.snapshot(), last_update)

@@ -71,6 +71,8 @@ SCHEMA = {
     "report.reference_vel_mps": (NUM, False, None),
     "report.reference_att_deg": (NUM, False, None),
 }
+KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth"}
 
@@ -131,6 +133,7 @@ def _check_type(field: str, typ, value):
 class Scenario:
     path: pathlib.Path
     data: dict
+    _traj: object = None
 
     def __getitem__(self, dotted: str):
         return _get(self.data, dotted)
@@ -155,8 +158,22 @@ class Scenario:
             out.append(Maneuver(m["type"], float(m["t_start_s"]), float(m["duration_s"]), float(delta)))
         return out
 
-    def trajectory(self) -> Trajectory:
-        return Trajectory(self.start(), self.maneuvers(), self["duration_s"])
+    def trajectory(self):
+        """The truth: boost-glide dynamics when a ``flight:`` block is given
+        (seed 002 eqs. 1-10, seed 004 eq. 12), else the kinematic maneuver
+        profiles. Built once per Scenario object (it is deterministic)."""
+        if self._traj is None:
+            if "flight" in self.data:
+                from .boost_glide import DynamicTrajectory
+                flight = dict(self.data["flight"])
+                flight.setdefault("duration_s", self["duration_s"])
+                self._traj = DynamicTrajectory.from_config(flight)
+                if self._traj.duration_s < self["duration_s"] - 1e-6:
+                    raise ScenarioError(f"{self.path}: duration_s: the flight ends at {self._traj.duration_s:.1f} s "
+                                        f"(end_speed_mps/end_alt_m reached), before duration_s = {self['duration_s']}")
+            else:
+                self._traj = Trajectory(self.start(), self.maneuvers(), self["duration_s"])
+        return self._traj
 
     def filter_initial_state(self):
         """The filter's initial nominal state: truth at t = 0 plus the
@@ -186,7 +203,10 @@ def validate(data, source: str = "<dict>") -> dict:
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: top level must be a mapping")
     data = copy.deepcopy(data)
+    dynamic = "flight" in data
     for field, (typ, required, default) in SCHEMA.items():
+        if dynamic and field.startswith(KINEMATIC_ONLY):
+            continue
         try:
             value = _get(data, field)
         except KeyError:
@@ -218,7 +238,31 @@ def validate(data, source: str = "<dict>") -> dict:
         FilterConfig.from_dict((data.get("filter") or {}).get("config", {}) or {})
     except (ConfigError, TypeError) as exc:
         raise ScenarioError(f"{source}: filter.config: {exc}") from None
+    _validate_models(data, source)
     return data
+
+
+def _validate_models(data: dict, source: str) -> None:
+    """The optional model blocks validate themselves; errors name the field."""
+    from .baro_model import BaroErrors
+    from .boost_glide_config import parse_flight
+    from .imu_model import ImuErrors
+    from .lever_arm import LeverArmConfig
+    from .mag_model import MagnetometerErrors
+    checks = [("imu", lambda d: ImuErrors.from_config(d)),
+              ("magnetometer", lambda d: MagnetometerErrors.from_config(d)),
+              ("flight", lambda d: parse_flight(d)),
+              ("lever_arm", lambda d: LeverArmConfig.from_config(d)),
+              ("barometer", lambda d: BaroErrors.from_config(d, prefix="barometer"))]
+    for key, check in checks:
+        if key in data:
+            try:
+                check(data[key])
+            except ValueError as exc:
+                msg = str(exc)
+                raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
+    if "flight" in data and "maneuvers" in data:
+        raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both")
 
 
 def load_scenario(name_or_path: str) -> Scenario:

@@ -11,7 +11,10 @@ import numpy as np
 
 from .gnss_model import GnssFixes, simulate_fixes
 from .imu_model import ImuErrors, corrupt_increments, imu_epochs
-from .mag_model import simulate_magnetometer_T
+from .baro_model import BaroErrors, simulate_baro_pa
+from .lever_arm import LeverArmConfig, add_lever_arm_to_increments
+from .mag_model import MagnetometerErrors, simulate_magnetometer_T
+from .radar import EarlyWarningRadar
 from .scenario import Scenario
 
 
@@ -24,11 +27,19 @@ class ImuStream:
 
 
 def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
+    """IMU increments; with ``lever_arm.enabled`` the elastic lever-arm
+    acceleration (seed 000 eq. 1) is added to the accelerometers before the
+    sensor errors."""
     dt = 1.0 / sc["imu.rate_hz"]
     t = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
     dth, dv = traj.imu_increments(t, dt)
-    if not error_free:
-        dth, dv = corrupt_increments(dth, dv, dt, ImuErrors.from_scenario(sc), sc.rng("imu"))
+    if error_free:
+        return ImuStream(t, dt, dth, dv)
+    if "lever_arm" in sc.data:
+        cfg = LeverArmConfig.from_config(sc.data["lever_arm"])
+        if cfg.enabled:
+            dv = add_lever_arm_to_increments(dv, t, dt, traj, cfg, rng=sc.rng("lever_arm"))
+    dth, dv = corrupt_increments(dth, dv, dt, ImuErrors.from_scenario(sc), sc.rng("imu"))
     return ImuStream(t, dt, dth, dv)
 
 
@@ -41,4 +52,21 @@ def gnss_stream(sc: Scenario, traj) -> GnssFixes:
 def mag_stream(sc: Scenario, traj):
     t = imu_epochs(sc["duration_s"], sc["magnetometer.rate_hz"])
     return t, simulate_magnetometer_T(traj, t, sc["magnetometer.epoch_decimal_year"],
-                                      sc["magnetometer.noise_nT"], sc.rng("mag"))
+                                      sc["magnetometer.noise_nT"], sc.rng("mag"),
+                                      errors=MagnetometerErrors.from_config(sc.data["magnetometer"]))
+
+
+def baro_stream(sc: Scenario, traj):
+    """(t_s, static pressure Pa, true altitude m) from the ``barometer:`` block."""
+    cfg = sc.data["barometer"]
+    t = imu_epochs(sc["duration_s"], float(cfg.get("rate_hz", 10.0)))
+    alt = traj.truth(t).alt_m
+    return t, simulate_baro_pa(alt, BaroErrors.from_config(cfg, prefix="barometer"), sc.rng("baro")), alt
+
+
+def radar_stream(sc: Scenario, traj):
+    """Early-warning radar track (seed 002 section 3.2) from the ``radar:`` block."""
+    cfg = dict(sc.data["radar"])
+    radar = EarlyWarningRadar(**cfg)
+    t = imu_epochs(sc["duration_s"], radar.rate_hz)
+    return radar.measure(traj, t, sc.rng("radar"))
