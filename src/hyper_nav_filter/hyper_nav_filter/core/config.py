@@ -17,6 +17,10 @@ class ConfigError(ValueError):
     """A configuration field is missing or invalid; the message names it."""
 
 
+# string-valued fields and their allowed values
+_STRING_FIELDS = {"mechanization_frame": ("ENU", "LCI"), "lci_gravity": ("j2", "normal")}
+
+
 @dataclass(frozen=True)
 class FilterConfig:
     state_blocks: tuple[str, ...] = ("att", "vel", "pos", "bg", "ba")
@@ -46,11 +50,20 @@ class FilterConfig:
     reprocess_window_s: float = 3.0
     output_delay_s: float = 1.0
     output_rate_hz: float = 50.0
+    # mechanization frame of the filter's nominal state (make_filter picks the class):
+    # "ENU" local-level geodetic (core.eskf.ErrorStateKF) or "LCI" launch-centred
+    # inertial (core.lci.filter.LciErrorStateKF, seed 001); outputs are ENU for both
+    mechanization_frame: str = "ENU"
+    # LCI only: launch azimuth A0 (deg clockwise from north; x_a axis) and the
+    # gravitation model of the LCI mechanization ("j2" seed 001 eqs. 7-10, or
+    # "normal" = WGS-84 normal gravity as the simulator's truth uses)
+    launch_azimuth_deg: float = 0.0
+    lci_gravity: str = "j2"
     layout: StateLayout = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         for f in fields(self):
-            if f.name in ("layout", "state_blocks"):
+            if f.name in ("layout", "state_blocks") or f.name in _STRING_FIELDS:
                 continue
             val = getattr(self, f.name)
             arr = np.asarray(val, dtype=object)
@@ -65,6 +78,10 @@ class FilterConfig:
                      "reprocess_window_s"):
             if getattr(self, name) <= 0:
                 raise ConfigError(f"filter config field '{name}' must be > 0")
+        for name, allowed in _STRING_FIELDS.items():
+            if getattr(self, name) not in allowed:
+                raise ConfigError(f"filter config field '{name}' must be one of {allowed}, "
+                                  f"got {getattr(self, name)!r}")
         if not 0.5 < self.gate_probability < 1.0:
             raise ConfigError("filter config field 'gate_probability' must be in (0.5, 1)")
         if self.output_delay_s < 0 or self.output_delay_s >= self.reprocess_window_s:

@@ -28,7 +28,11 @@ MODE_INITIALIZING, MODE_INS_ONLY, MODE_LOOSELY_COUPLED = 1, 2, 3
 
 
 def make_filter(cfg: FilterConfig, initial: NavState):
-    """The error-state filter of the configured mechanization frame."""
+    """The error-state filter of the configured mechanization frame
+    (``cfg.mechanization_frame``: "ENU" or "LCI")."""
+    if cfg.mechanization_frame == "LCI":
+        from .lci.filter import LciErrorStateKF
+        return LciErrorStateKF(cfg, initial, cfg.initial_covariance())
     return ErrorStateKF(cfg, initial, cfg.initial_covariance())
 
 

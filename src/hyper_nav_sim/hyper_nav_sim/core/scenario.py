@@ -261,6 +261,14 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 msg = str(exc)
                 raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
+    raw = (data.get("gnss") or {}).get("raw")
+    if raw is not None:
+        from .gnss.receiver import GnssReceiverConfig
+        try:
+            GnssReceiverConfig.from_dict({k: v for k, v in raw.items()})
+        except ValueError as exc:
+            msg = str(exc)
+            raise ScenarioError(f"{source}: {msg if msg.startswith('gnss') else 'gnss.raw.' + msg}") from None
     if "flight" in data and "maneuvers" in data:
         raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both")
 

@@ -43,6 +43,18 @@ def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
     return ImuStream(t, dt, dth, dv)
 
 
+def gnss_raw_stream(sc: Scenario, traj):
+    """Raw GNSS epochs (pseudoranges, Doppler, lock flags, ephemerides, LS
+    fix) from the receiver simulation configured by ``gnss.raw``, at
+    ``gnss.rate_hz``: a list of ``core.gnss.receiver.GnssEpoch``."""
+    from .gnss.receiver import GnssReceiverSim
+    cfg = dict(sc.data["gnss"]["raw"])
+    cfg["rate_hz"] = sc["gnss.rate_hz"]
+    cfg.setdefault("antenna_lever_arm_b_m", sc["gnss.antenna_lever_arm_b_m"])
+    t = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
+    return GnssReceiverSim(cfg).simulate(traj, t, sc.rng("gnss_raw"))
+
+
 def gnss_stream(sc: Scenario, traj) -> GnssFixes:
     t = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
     return simulate_fixes(traj, t, sc["gnss.pos_sigma_enu_m"], sc["gnss.vel_sigma_enu_mps"],

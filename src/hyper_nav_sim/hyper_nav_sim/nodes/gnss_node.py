@@ -2,6 +2,15 @@
 (geometry_msgs/TwistWithCovarianceStamped, frame ``enu``: linear = ENU
 velocity of the antenna w.r.t. Earth) at the scenario GNSS rate.
 
+With a ``gnss.raw`` block the receiver is simulated from a broadcast-
+ephemeris constellation (``core.gnss``): ``gnss/raw``
+(hyper_nav_msgs/GnssMeasurements: pseudorange, rate, Doppler, C/N0, lock
+flag per satellite), ``gnss/ephemeris`` (hyper_nav_msgs/GnssEphemeris, one
+message per satellite, transient-local so late joiners get them), and the
+fix/velocity come from the receiver's least-squares PVT over the locked
+satellites (no fix is published while fewer than 4 are locked). Without it,
+fixes are the antenna truth plus white noise.
+
 Messages are released ``gnss.latency_s`` after their epoch (receiver
 latency); header.stamp stays the measurement epoch.
 """
@@ -24,19 +33,75 @@ class GnssNode(ClockDrivenSensor):
         self.enu_frame = self.declare_parameter("enu_frame_id", "enu").value
         sc = self.scenario
         self.latency_s = float(self.declare_parameter("latency_s", sc["gnss.latency_s"]).value)
-        self.fixes = simulate.gnss_stream(sc, sc.trajectory())
-        self.pos_cov = np.diag(self.fixes.pos_sigma_enu_m**2).ravel().tolist()
-        vcov = np.zeros((6, 6))
-        vcov[:3, :3] = np.diag(self.fixes.vel_sigma_enu_mps**2)
-        vcov[3:, 3:] = np.eye(3) * 1e6          # angular part unknown: huge variance
-        self.vel_cov = vcov.ravel().tolist()
         self.pub_fix = self.create_publisher(NavSatFix, "gnss/fix", self.qos)
         self.pub_vel = self.create_publisher(TwistWithCovarianceStamped, "gnss/vel", self.qos)
+        self.raw_mode = "raw" in sc.data["gnss"]
+        if self.raw_mode:
+            self._setup_raw(sc)
+        else:
+            self.fixes = simulate.gnss_stream(sc, sc.trajectory())
+            n = len(self.fixes.t_s)
+            self.pos_cov = [np.diag(self.fixes.pos_sigma_enu_m**2)] * n
+            self.vel_cov = [np.diag(self.fixes.vel_sigma_enu_mps**2)] * n
+            self.schedule(self.fixes.t_s, self.pub_fix, self._make_fix)
+            self.schedule(self.fixes.t_s, self.pub_vel, self._make_vel)
+
+    def _setup_raw(self, sc):
+        from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        self.epochs = simulate.gnss_raw_stream(sc, sc.trajectory())
+        self.pub_raw = self.create_publisher(GnssMeasurements, "gnss/raw", self.qos)
+        latched = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched)
+        self._eph_cls, self._raw_cls = GnssEphemeris, GnssMeasurements
+        self._published_eph = set()
+        with_fix = [i for i, e in enumerate(self.epochs) if e.fix is not None]
+        self.fixes = _FixArrays([self.epochs[i] for i in with_fix])
+        self.pos_cov = [self.epochs[i].fix.cov_pos_enu_m2 for i in with_fix]
+        self.vel_cov = [self.epochs[i].fix.cov_vel_enu_m2ps2 for i in with_fix]
+        self.schedule([e.t_s for e in self.epochs], self.pub_raw, self._make_raw)
         self.schedule(self.fixes.t_s, self.pub_fix, self._make_fix)
         self.schedule(self.fixes.t_s, self.pub_vel, self._make_vel)
 
     def publishers_to_match(self):
-        return [self.pub_fix, self.pub_vel]
+        pubs = [self.pub_fix, self.pub_vel]
+        return pubs + [self.pub_raw] if self.raw_mode else pubs
+
+    def _make_raw(self, i: int):
+        e = self.epochs[i]
+        for eph in e.ephemeris_set:            # ephemerides before the first measurement using them
+            key = (eph.system, eph.prn, eph.toe)
+            if key not in self._published_eph:
+                self._published_eph.add(key)
+                self.pub_eph.publish(self._eph_msg(eph, e.t_s))
+                self.published["gnss/ephemeris"] = self.published.get("gnss/ephemeris", 0) + 1
+        m = self.stamp(self._raw_cls(), e.t_s, self.frame_id)
+        m.gps_week = int(e.t_gpst_s // 604800)
+        m.rx_time_of_week_s = float(e.t_tag_s - 604800 * m.gps_week)
+        m.system = [1 if s == "G" else 3 for s in e.system]
+        m.prn = [int(p) for p in e.prn]
+        for name, arr in (("pseudorange_m", e.pseudorange_m), ("pseudorange_sigma_m", e.pr_sigma_m),
+                          ("pseudorange_rate_mps", e.pseudorange_rate_mps),
+                          ("pseudorange_rate_sigma_mps", e.rate_sigma_mps), ("doppler_hz", e.doppler_hz),
+                          ("carrier_frequency_hz", e.carrier_hz), ("cn0_dbhz", e.cn0_dbhz),
+                          ("elevation_rad", e.elevation_rad), ("azimuth_rad", e.azimuth_rad)):
+            setattr(m, name, [float(x) for x in arr])
+        m.locked = [bool(x) for x in e.locked]
+        return m
+
+    def _eph_msg(self, eph, t_s):
+        m = self.stamp(self._eph_cls(), t_s, "")
+        m.system = 1 if eph.system == "G" else 3
+        m.prn, m.week = int(eph.prn), int(eph.week)
+        m.toe_s, m.toc_s = float(eph.toe), float(eph.toc)
+        m.sqrt_a_sqrtm, m.e, m.i0_rad, m.omega0_rad = float(eph.sqrtA), float(eph.e), float(eph.i0), float(eph.Omega0)
+        m.omega_rad, m.m0_rad, m.delta_n_radps = float(eph.omega), float(eph.M0), float(eph.delta_n)
+        m.idot_radps, m.omega_dot_radps = float(eph.idot), float(eph.OmegaDot)
+        m.cuc_rad, m.cus_rad, m.crc_m, m.crs_m = float(eph.cuc), float(eph.cus), float(eph.crc), float(eph.crs)
+        m.cic_rad, m.cis_rad = float(eph.cic), float(eph.cis)
+        m.af0_s, m.af1_sps, m.af2_sps2, m.tgd_s = float(eph.af0), float(eph.af1), float(eph.af2), float(eph.tgd)
+        return m
 
     def _make_fix(self, i: int) -> NavSatFix:
         f = self.fixes
@@ -45,8 +110,8 @@ class GnssNode(ClockDrivenSensor):
         m.status.service = NavSatStatus.SERVICE_GPS
         m.latitude, m.longitude = float(np.rad2deg(f.lat_rad[i])), float(np.rad2deg(f.lon_rad[i]))
         m.altitude = float(f.alt_m[i])
-        m.position_covariance = self.pos_cov
-        m.position_covariance_type = NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
+        m.position_covariance = np.asarray(self.pos_cov[i], float).ravel().tolist()
+        m.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
         return m
 
     def _make_vel(self, i: int) -> TwistWithCovarianceStamped:
@@ -54,8 +119,22 @@ class GnssNode(ClockDrivenSensor):
         m = self.stamp(TwistWithCovarianceStamped(), f.t_s[i], self.enu_frame)
         v = m.twist.twist.linear
         v.x, v.y, v.z = map(float, f.vel_enu_mps[i])
-        m.twist.covariance = self.vel_cov
+        vcov = np.zeros((6, 6))
+        vcov[:3, :3] = self.vel_cov[i]
+        vcov[3:, 3:] = np.eye(3) * 1e6          # angular part unknown: huge variance
+        m.twist.covariance = vcov.ravel().tolist()
         return m
+
+
+class _FixArrays:
+    """The receiver's fixes in the array layout of ``GnssFixes``."""
+
+    def __init__(self, epochs):
+        self.t_s = np.array([e.t_s for e in epochs])
+        self.lat_rad = np.array([e.fix.lat_rad for e in epochs])
+        self.lon_rad = np.array([e.fix.lon_rad for e in epochs])
+        self.alt_m = np.array([e.fix.alt_m for e in epochs])
+        self.vel_enu_mps = np.array([e.fix.vel_enu_mps for e in epochs]).reshape(-1, 3)
 
 
 def main(args=None):
