@@ -40,6 +40,7 @@ class FilterSnapshot:
     n_updates: int
     n_rejected: int
     last_nis: float
+    stats: dict
 
 
 class ErrorStateKF:
@@ -53,6 +54,8 @@ class ErrorStateKF:
         self.n_updates = 0
         self.n_rejected = 0
         self.last_nis = float("nan")
+        # per measurement kind: [accepted, rejected by the gate, sum of NIS]
+        self.stats: dict[str, list] = {}
         # per-epoch quantities the RTS smoother needs (see smoother.py)
         self.last_Phi = np.eye(self.layout.dim)
         self.P_prior = self.P.copy()
@@ -64,7 +67,8 @@ class ErrorStateKF:
     def snapshot(self) -> FilterSnapshot:
         return FilterSnapshot(self.state.copy(), self.P.copy(), self.imu_prev,
                               None if self.vel_prev_enu_mps is None else self.vel_prev_enu_mps.copy(),
-                              self.n_updates, self.n_rejected, self.last_nis)
+                              self.n_updates, self.n_rejected, self.last_nis,
+                              {k: list(v) for k, v in self.stats.items()})
 
     def restore(self, snap: FilterSnapshot) -> None:
         self.state = snap.state.copy()
@@ -72,6 +76,7 @@ class ErrorStateKF:
         self.imu_prev = snap.imu_prev
         self.vel_prev_enu_mps = None if snap.vel_prev_enu_mps is None else snap.vel_prev_enu_mps.copy()
         self.n_updates, self.n_rejected, self.last_nis = snap.n_updates, snap.n_rejected, snap.last_nis
+        self.stats = {k: list(v) for k, v in (snap.stats or {}).items()}
 
     # ---- predict ----------------------------------------------------------------
     def predict(self, imu: ImuSample) -> None:
@@ -113,9 +118,13 @@ class ErrorStateKF:
             return UpdateResult(kind, t_s, float("inf"), False, residual)
         nis = float(residual @ S_inv_r)
         self.last_nis = nis
+        st = self.stats.setdefault(kind, [0, 0, 0.0])
         if not np.isfinite(nis) or nis > self.gate_threshold(len(residual)):
             self.n_rejected += 1
+            st[1] += 1
             return UpdateResult(kind, t_s, nis, False, residual)
+        st[0] += 1
+        st[2] += nis / len(residual)
         K = np.linalg.solve(S, H @ self.P).T          # P H^T S^-1 (S symmetric)
         dx = K @ residual
         I_KH = np.eye(self.layout.dim) - K @ H

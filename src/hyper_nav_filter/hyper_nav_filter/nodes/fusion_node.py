@@ -108,6 +108,10 @@ class FusionNode(Node):
         c["n_updates"] = self.engine.kf.n_updates
         c["n_rejected_gate"] = self.engine.kf.n_rejected
         c["last_nis"] = f"{self.engine.kf.last_nis:.3f}"
+        for kind, (acc, rej, nis_sum) in self.engine.kf.stats.items():
+            c[f"{kind}_accepted"] = acc
+            c[f"{kind}_gated"] = rej
+            c[f"{kind}_mean_nis_per_dof"] = f"{nis_sum / max(acc, 1):.3f}"
         rejected = sum(v for k, v in c.items() if str(k).startswith("rejected_"))
         self.pub_diag.publish(diagnostic_array(self, "hyper_nav_filter: fusion", rejected == 0,
                                                f"{rejected} input messages rejected", c))

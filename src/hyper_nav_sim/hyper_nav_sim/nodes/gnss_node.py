@@ -66,7 +66,8 @@ class GnssNode(ClockDrivenSensor):
 
     def publishers_to_match(self):
         pubs = [self.pub_fix, self.pub_vel]
-        return pubs + [self.pub_raw] if self.raw_mode else pubs
+        # the fusion node takes fix/vel; raw measurements go to the recorder (or a user's node)
+        return pubs + [(self.pub_raw, 1)] if self.raw_mode else pubs
 
     def _make_raw(self, i: int):
         e = self.epochs[i]

@@ -14,7 +14,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.ros_util import all_matched, diagnostic_array, publisher_qos
+from hyper_nav_filter.ros_util import diagnostic_array, publisher_qos
 
 from ..core.scenario import load_scenario
 
@@ -35,6 +35,9 @@ class ClockDrivenSensor(Node):
         self.create_timer(1.0, self.publish_diagnostics)
 
     def publishers_to_match(self):
+        """Publishers that must see ``min_subscribers`` matched subscriptions
+        before data flows; an entry (publisher, n) asks for min(n, min_subscribers)
+        (for topics only some of the expected subscribers take)."""
         raise NotImplementedError
 
     def schedule(self, epochs_s, topic_publisher, make_msg):
@@ -44,8 +47,10 @@ class ClockDrivenSensor(Node):
         self._queue.sort(key=lambda e: (e[0], e[1]))
 
     def _start_when_ready(self):
-        if not all_matched(self.publishers_to_match(), self.min_subscribers):
-            return
+        for entry in self.publishers_to_match():
+            pub, need = entry if isinstance(entry, tuple) else (entry, self.min_subscribers)
+            if pub.get_subscription_count() < min(need, self.min_subscribers):
+                return
         self._wait_timer.cancel()
         self._clock_sub = self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))
 

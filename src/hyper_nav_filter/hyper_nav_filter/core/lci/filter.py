@@ -174,6 +174,7 @@ class LciErrorStateKF(ErrorStateKF):
     def snapshot(self) -> LciFilterSnapshot:
         return LciFilterSnapshot(self.state.copy(), self.P_enu(), self.imu_prev, None,
                                  self.n_updates, self.n_rejected, self.last_nis,
+                                 {k: list(v) for k, v in self.stats.items()},
                                  self._lci.copy(), self.P.copy())
 
     def restore(self, snap: LciFilterSnapshot) -> None:
@@ -183,6 +184,7 @@ class LciErrorStateKF(ErrorStateKF):
         self._nav = snap.state.copy()
         self._C_n_a_cache = None
         self.P = snap.P_lci.copy()
+        self.stats = {k: list(v) for k, v in snap.stats.items()}
         self.imu_prev = snap.imu_prev
         self.vel_prev_enu_mps = None
         self.n_updates, self.n_rejected, self.last_nis = snap.n_updates, snap.n_rejected, snap.last_nis
