@@ -27,9 +27,9 @@ def test_old_model_is_reproduced_bit_for_bit():
     rng = sc.rng("imu")
     n = len(t)
     ref_th = (dth + units.deg_per_hr(sc["imu.gyro_bias_deg_per_hr"]) * dt
-              + rng.standard_normal((n, 3)) * units.deg_per_sqrt_hr(0.01) * np.sqrt(dt))
+              + rng.standard_normal((n, 3)) * units.deg_per_sqrt_hr(sc["imu.gyro_arw_deg_per_sqrt_hr"]) * np.sqrt(dt))
     ref_v = (dv + units.ug(sc["imu.accel_bias_ug"]) * dt
-             + rng.standard_normal((n, 3)) * units.ug_per_sqrt_hz(100.0) * np.sqrt(dt))
+             + rng.standard_normal((n, 3)) * units.ug_per_sqrt_hz(sc["imu.accel_vrw_ug_per_sqrt_hz"]) * np.sqrt(dt))
     np.testing.assert_array_equal(got[0], ref_th)
     np.testing.assert_array_equal(got[1], ref_v)
     stream = simulate.imu_stream(sc, traj)            # the existing caller still works

@@ -40,10 +40,10 @@ def test_imu_noise_statistics_match_configuration():
     e_a = (noisy.dvel_b_mps - exact.dvel_b_mps) / dt
     n = len(e_g)
     np.testing.assert_allclose(e_g.mean(axis=0), units.deg_per_hr(sc["imu.gyro_bias_deg_per_hr"]),
-                               atol=5 * units.deg_per_sqrt_hr(0.01) / np.sqrt(dt * n))
+                               atol=5 * units.deg_per_sqrt_hr(sc["imu.gyro_arw_deg_per_sqrt_hr"]) / np.sqrt(dt * n))
     np.testing.assert_allclose(e_a.mean(axis=0), units.ug(sc["imu.accel_bias_ug"]),
                                atol=5 * units.ug_per_sqrt_hz(100.0) / np.sqrt(dt * n))
-    assert e_g.std(axis=0) * np.sqrt(dt) == pytest.approx(np.full(3, units.deg_per_sqrt_hr(0.01)), rel=0.03)
+    assert e_g.std(axis=0) * np.sqrt(dt) == pytest.approx(np.full(3, units.deg_per_sqrt_hr(sc["imu.gyro_arw_deg_per_sqrt_hr"])), rel=0.03)
     assert e_a.std(axis=0) * np.sqrt(dt) == pytest.approx(np.full(3, units.ug_per_sqrt_hz(100.0)), rel=0.03)
 
 
