@@ -89,6 +89,10 @@ class ErrorStateKF:
         self.state = mechanization.propagate(prior, imu, self.imu_prev, self.vel_prev_enu_mps)
         self.vel_prev_enu_mps = prior.vel_enu_mps
         self.imu_prev = imu
+        self._propagate_covariance(Phi, Q)
+
+    def _propagate_covariance(self, Phi, Q) -> None:
+        """P = Phi P Phi^T + Q (symmetrised); keep Phi and the prior for the smoother."""
         P = Phi @ self.P @ Phi.T + Q
         self.P = 0.5 * (P + P.T)
         self.last_Phi, self.P_prior = Phi, self.P.copy()

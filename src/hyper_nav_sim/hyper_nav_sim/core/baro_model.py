@@ -32,61 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# ---- minimal US Standard Atmosphere 1976 (fallback) ----------------------------
-_R0_M = 6356766.0                 # US76 effective Earth radius for geopotential height
-_G0 = 9.80665
-_M_AIR = 0.0289644                # kg/mol
-_R_STAR = 8.31432                 # J/(mol K), US76 value
-_H_B = np.array([0.0, 11000.0, 20000.0, 32000.0, 47000.0, 51000.0, 71000.0, 84852.0])   # geopotential m
-_L_B = np.array([-0.0065, 0.0, 0.0010, 0.0028, 0.0, -0.0028, -0.0020])                  # K/m
-_T_B = np.empty(8)
-_P_B = np.empty(8)
-_T_B[0], _P_B[0] = 288.15, 101325.0
-for _i in range(7):
-    _dh = _H_B[_i + 1] - _H_B[_i]
-    _T_B[_i + 1] = _T_B[_i] + _L_B[_i] * _dh
-    if _L_B[_i] == 0.0:
-        _P_B[_i + 1] = _P_B[_i] * np.exp(-_G0 * _M_AIR * _dh / (_R_STAR * _T_B[_i]))
-    else:
-        _P_B[_i + 1] = _P_B[_i] * (_T_B[_i] / _T_B[_i + 1]) ** (_G0 * _M_AIR / (_R_STAR * _L_B[_i]))
-
-
-def us76_pressure_pa(alt_m):
-    """US76 static pressure [Pa] at geometric altitude alt_m (0-86 km; below
-    0 the first layer is extrapolated)."""
-    z = np.asarray(alt_m, float)
-    h = _R0_M * z / (_R0_M + z)                         # geopotential altitude
-    i = np.clip(np.searchsorted(_H_B, h, side="right") - 1, 0, 6)
-    tb, lb, pb, hb = _T_B[i], _L_B[i], _P_B[i], _H_B[i]
-    lb_safe = np.where(lb == 0.0, 1.0, lb)
-    iso = pb * np.exp(-_G0 * _M_AIR * (h - hb) / (_R_STAR * tb))
-    grad = pb * (tb / (tb + lb_safe * (h - hb))) ** (_G0 * _M_AIR / (_R_STAR * lb_safe))
-    return np.where(lb == 0.0, iso, grad)
+from .atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
 
 
 def default_pressure_fn():
-    """``pressure_pa_at(alt_m)``: the project's ``atmosphere.us76`` if it is
-    importable and returns a pressure (a number/array, or an object/dict with
-    ``pressure_pa``), else ``us76_pressure_pa``."""
-    try:
-        from .atmosphere import us76        # written by another module owner
-    except Exception:                       # noqa: BLE001 - absent or broken: use the fallback
-        return us76_pressure_pa
-
-    def p(alt_m):
-        r = us76(alt_m)
-        if hasattr(r, "pressure_pa"):
-            return np.asarray(r.pressure_pa, float)
-        if isinstance(r, dict) and "pressure_pa" in r:
-            return np.asarray(r["pressure_pa"], float)
-        return np.asarray(r, float)
-
-    try:
-        if not 2.0e4 < float(np.ravel(p(np.array([1000.0])))[0]) < 1.0e5:
-            return us76_pressure_pa
-    except Exception:                       # noqa: BLE001 - unexpected API: use the fallback
-        return us76_pressure_pa
-    return p
+    """``pressure_pa_at(alt_m)``: US76 static pressure (``atmosphere.py``)."""
+    return us76_pressure_pa
 
 
 @dataclass(frozen=True)

@@ -4,10 +4,10 @@ import pytest
 
 from hyper_nav_sim.core import baro_model as bm
 
-US76 = bm.us76_pressure_pa       # injected explicitly: independent of atmosphere.py
+US76 = bm.us76_pressure_pa       # the project's US76 (atmosphere.py), injected explicitly
 
 
-def test_fallback_us76_matches_the_standard_table():
+def test_us76_pressure_matches_the_standard_table():
     # US Standard Atmosphere 1976 table values at geometric altitude [Pa]
     h = np.array([0.0, 11000.0, 20000.0, 30000.0, 50000.0, 60000.0])
     p = np.array([101325.0, 22700.0, 5529.3, 1197.0, 79.78, 21.96])
@@ -18,7 +18,7 @@ def test_inversion_round_trip():
     h = np.linspace(-500.0, 60000.0, 1001)
     back = bm.altitude_from_pressure_m(US76(h), US76)
     np.testing.assert_allclose(back, h, atol=1e-5)
-    # with the default (project atmosphere if present, else the fallback) too
+    # with the default pressure function too
     f = bm.default_pressure_fn()
     np.testing.assert_allclose(bm.altitude_from_pressure_m(f(h), f), h, atol=1e-5)
 

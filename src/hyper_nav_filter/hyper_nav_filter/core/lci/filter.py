@@ -200,10 +200,7 @@ class LciErrorStateKF(ErrorStateKF):
         self._lci = lci_mech.propagate(prior, imu, self.imu_prev, self._gravity)
         self._nav = None
         self.imu_prev = imu
-        P = Phi @ self.P @ Phi.T + Q
-        self.P = 0.5 * (P + P.T)
-        self.last_Phi, self.P_prior = Phi, self.P.copy()
-        self.epoch_dx = np.zeros(self.layout.dim)
+        self._propagate_covariance(Phi, Q)
 
     # ---- measurements -------------------------------------------------------------
     def model(self, meas, ctx):
