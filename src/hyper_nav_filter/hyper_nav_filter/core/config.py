@@ -34,6 +34,9 @@ class FilterConfig:
     # first-order Markov gyro drift (block "gm", seed 000 eqs. 14-15)
     gyro_markov_sigma_deg_per_hr: float = 0.05
     gyro_markov_tau_s: float = 300.0
+    # scale-factor blocks sg / sa: random constants, initial sigma (ppm)
+    gyro_scale_factor_sigma_ppm: float = 100.0
+    accel_scale_factor_sigma_ppm: float = 100.0
     # receiver clock (block "clk"): initial sigmas and random-walk PSDs
     clock_bias_sigma_m: float = 100.0
     clock_drift_sigma_mps: float = 1.0
@@ -130,7 +133,9 @@ class FilterConfig:
                 "bg": np.full(3, units.deg_per_hr(self.gyro_bias_sigma_deg_per_hr)),
                 "ba": np.full(3, units.ug(self.accel_bias_sigma_ug)),
                 "gm": np.full(3, units.deg_per_hr(self.gyro_markov_sigma_deg_per_hr)),
-                "clk": np.array([self.clock_bias_sigma_m, self.clock_drift_sigma_mps])}
+                "clk": np.array([self.clock_bias_sigma_m, self.clock_drift_sigma_mps]),
+                "sg": np.full(3, self.gyro_scale_factor_sigma_ppm * 1e-6),
+                "sa": np.full(3, self.accel_scale_factor_sigma_ppm * 1e-6)}
         for name in lay.names:
             s = lay.sl(name)
             P[s, s] = np.diag(diag[name] ** 2)

@@ -12,7 +12,10 @@ estimate minus truth; position error is in local ENU metres.
 Optional blocks: ``gm``, a first-order Markov gyro drift (seed 000 eqs.
 14-15: gm_dot = -gm / T_g + w_gm, entering phi_dot like the bias), and
 ``clk``, the receiver clock bias b (m) and drift d (m/s) (seed 004 eqs. 1-4:
-b_dot = d + w_b, d_dot = w_d).
+b_dot = d + w_b, d_dot = w_d); ``sg``/``sa``, gyro/accelerometer scale-factor
+errors as random constants: the corrected rate is off by -diag(omega_b) d_sg
+and the specific force by -diag(f_b) d_sa, so
+    phi_dot += C_b_n diag(omega_ib_b) d_sg,   dv_dot -= C_b_n diag(f_b) d_sa.
 """
 from __future__ import annotations
 
@@ -86,6 +89,10 @@ def system_matrices(state: NavState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.
         F[a, gm] = C
         F[gm, gm] = -np.eye(3) / cfg.gyro_markov_tau_s
         G[gm, col["gm"]] = np.eye(3)
+    if layout.has("sg"):
+        F[a, layout.sl("sg")] = C * omega_ib_b_radps          # C diag(omega)
+    if layout.has("sa"):
+        F[vv, layout.sl("sa")] = -C * f_b_mps2                # -C diag(f)
     if layout.has("clk"):
         ck = layout.sl("clk")
         F[ck.start, ck.start + 1] = 1.0

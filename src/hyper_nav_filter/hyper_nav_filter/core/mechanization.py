@@ -27,9 +27,8 @@ def sculling_velocity_increment(dtheta_b_rad, dvel_b_mps, dtheta_prev_b_rad, dve
 
 
 def compensate(imu: ImuSample, state: NavState) -> tuple[np.ndarray, np.ndarray]:
-    """Remove the estimated biases from the increments."""
-    return (imu.dtheta_b_rad - state.gyro_error_b_radps() * imu.dt_s,
-            imu.dvel_b_mps - state.accel_bias_b_mps2 * imu.dt_s)
+    """Remove the estimated biases (and scale factors) from the increments."""
+    return state.compensate(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s)
 
 
 def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,

@@ -31,7 +31,7 @@ class NavState:
     gyro_bias_b_radps: np.ndarray = field(default_factory=lambda: np.zeros(3))
     accel_bias_b_mps2: np.ndarray = field(default_factory=lambda: np.zeros(3))
     # nominal values of the optional blocks, e.g. {"gm": gyro Markov drift (rad/s),
-    # "clk": [clock bias m, clock drift m/s]}
+    # "clk": [clock bias m, clock drift m/s], "sg"/"sa": gyro/accel scale factors}
     extra: dict = field(default_factory=dict)
 
     def copy(self) -> "NavState":
@@ -44,3 +44,16 @@ class NavState:
         """Total estimated gyro error: constant bias plus Markov drift."""
         gm = self.extra.get("gm")
         return self.gyro_bias_b_radps if gm is None else self.gyro_bias_b_radps + gm
+
+    def compensate(self, dtheta_b_rad: np.ndarray, dvel_b_mps: np.ndarray, dt_s: float):
+        """IMU increments corrected with the estimated errors: bias (plus Markov
+        drift) removed, then the scale factors divided out,
+        omega = (omega_meas - b) / (1 + s) (exact for the model of core.state_layout)."""
+        dth = dtheta_b_rad - self.gyro_error_b_radps() * dt_s
+        dv = dvel_b_mps - self.accel_bias_b_mps2 * dt_s
+        sg, sa = self.extra.get("sg"), self.extra.get("sa")
+        if sg is not None:
+            dth = dth / (1.0 + sg)
+        if sa is not None:
+            dv = dv / (1.0 + sa)
+        return dth, dv

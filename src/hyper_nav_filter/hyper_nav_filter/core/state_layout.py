@@ -8,6 +8,8 @@ Blocks (frame, unit):
   ba   accelerometer bias error, body, m/s^2
   gm   first-order Markov gyro drift error, body, rad/s (seed 000 eqs. 14-15)
   clk  receiver clock bias (m) and drift (m/s) error (seed 004 eqs. 1-4)
+  sg   gyro scale-factor error, body, dimensionless (omega_meas = (1 + sg) omega + bg)
+  sa   accelerometer scale-factor error, body, dimensionless (f_meas = (1 + sa) f + ba)
 Every error is estimate minus truth. Other modules ask the layout for slices
 (``layout.sl("vel")``) and never compute indices themselves.
 """
@@ -15,9 +17,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-BLOCK_SIZES = {"att": 3, "vel": 3, "pos": 3, "bg": 3, "ba": 3, "gm": 3, "clk": 2}
+BLOCK_SIZES = {"att": 3, "vel": 3, "pos": 3, "bg": 3, "ba": 3, "gm": 3, "clk": 2, "sg": 3, "sa": 3}
 # Blocks that carry a nominal value besides the navigation state (NavState.extra).
-EXTRA_BLOCKS = ("gm", "clk")
+EXTRA_BLOCKS = ("gm", "clk", "sg", "sa")
 
 
 @dataclass(frozen=True)
@@ -56,3 +58,4 @@ class StateLayout:
 
 INS_15 = StateLayout(("att", "vel", "pos", "bg", "ba"))
 TIGHT_17 = StateLayout(("att", "vel", "pos", "bg", "ba", "clk"))        # seed 004
+INS_21_SF = StateLayout(("att", "vel", "pos", "bg", "ba", "sg", "sa"))  # 15 + scale factors

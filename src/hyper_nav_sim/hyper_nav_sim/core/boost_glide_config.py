@@ -289,20 +289,26 @@ SEED004 = {
 
 # Seed 001 (Chen et al., LCI SINS/BDS) boost-glide HWIL trajectory: its
 # Table 1 values are not in our copy of the text; launch site near Xi'an as in
-# its vehicle test (34.2N 108.8E), azimuth 90 deg, 600 s. Booster sized for a
-# ~Mach 10 burnout (mass ratio 4, Isp ~ 280 s), then pull-up, glide and a
-# terminal dive at 500 s.
+# its vehicle test (34.2N 108.8E), azimuth 90 deg, 560 s. Booster sized for a
+# ~Mach 13 burnout at 28 km (mass ratio 4, Isp ~ 280 s); a short coast above
+# the sensible atmosphere (apogee 54 km, specific force < 0.15 g from 100 to
+# 185 s), re-entry pull-up, glide at 35-36 km with a 1.5 g S-turn weave
+# (period 90 s), terminal dive at 470 s. Depressed rather than lofted: the
+# first version (pitch kick 30 deg) coasted to 83 km for 220 s at zero g,
+# where tilt about the velocity and the roll-axis gyro bias are unobservable
+# from position/velocity fixes (attitude error 0.1-0.3 deg until re-entry).
 SEED001 = {
     "name": "seed001_vertical_launch",
-    "description": "vertical launch, pitch-over, gravity turn, pull-up, glide, dive",
+    "description": "vertical launch, pitch-over, gravity turn, short coast, pull-up, weaving glide, dive",
     "mass_kg": 8000.0, "s_ref_m2": 1.0, "cd0": 0.045, "k_induced": 0.62, "cl_alpha_per_rad": 1.6,
-    "c_l_max": 3.0, "duration_s": 600.0, "c_l_program": 0.8,
+    "c_l_max": 3.0, "duration_s": 560.0, "c_l_program": 0.8,
     "start": {"lat_deg": 34.2, "lon_deg": 108.8, "alt_m": 400.0, "speed_mps": 30.0,
               "gamma_deg": 90.0, "psi_deg": 90.0},
     "boost": {"thrust_n": 260000.0, "burn_time_s": 75.0, "mass_flow_kgps": 90.0, "vertical_s": 4.0,
-              "pitch_over_s": 30.0, "pitch_kick_deg": 30.0, "tail_off_s": 3.0, "blend_s": 20.0},
-    # terminal dive from 500 s (window end beyond the flight: no recovery)
-    "maneuvers": [{"type": "dive", "t_start_s": 500.0, "t_end_s": 700.0, "gamma_deg": -30.0}],
+              "pitch_over_s": 30.0, "pitch_kick_deg": 31.0, "tail_off_s": 3.0, "blend_s": 20.0},
+    # terminal dive window ends beyond the flight: no recovery
+    "maneuvers": [{"type": "s_turn", "t_start_s": 180.0, "t_end_s": 460.0, "load_g": 1.5, "period_s": 90.0},
+                  {"type": "dive", "t_start_s": 470.0, "t_end_s": 700.0, "gamma_deg": -30.0}],
 }
 
 FLIGHTS = {f["name"]: f for f in (SEED002_SCENARIO1, SEED002_SCENARIO2, SEED002_SCENARIO3,

@@ -12,6 +12,8 @@ Continuous dynamics (a is inertial, so no Earth/transport-rate terms; eqs.
     dv_dot  = (C_b_a f_b) x phi - C_b_a d_ba + G_a dr + C_b_a w_a   (82-85)
     dr_dot  = dv                                           (86)
     d_bg_dot = -d_bg / tau_g + w_bg,  d_ba_dot = -d_ba / tau_a + w_ba
+Optional scale-factor blocks (random constants, body axes; as the ENU model):
+    phi_dot += C_b_a diag(omega_ib_b) d_sg,   dv_dot -= C_b_a diag(f_b) d_sa
 G_a = dg_a/dr_a is the gravity gradient (central term, ``gravity.gravity_gradient_a``).
 The paper models the biases as random constants; the first-order
 Gauss-Markov form (tau -> inf gives the constant) keeps the interface of
@@ -45,7 +47,7 @@ def system_matrices(state: LciState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.
 
     f_b_mps2 / omega_ib_b_radps: bias-compensated specific force and angular
     rate (omega is unused: in the inertial frame the attitude error has no
-    rate coupling; kept for the same call signature as the ENU model)."""
+    rate coupling except through the scale-factor block ``sg``)."""
     n = layout.dim
     F = np.zeros((n, n))
     G = np.zeros((n, 12))
@@ -67,6 +69,10 @@ def system_matrices(state: LciState, f_b_mps2: np.ndarray, omega_ib_b_radps: np.
         F[vv, ba] = -C
         F[ba, ba] = -np.eye(3) / accel_bias_tau_s
         G[ba, 9:12] = np.eye(3)
+    if layout.has("sg"):
+        F[a, layout.sl("sg")] = C * omega_ib_b_radps          # C diag(omega)
+    if layout.has("sa"):
+        F[vv, layout.sl("sa")] = -C * f_b_mps2                # -C diag(f)
     return F, G
 
 
@@ -112,4 +118,7 @@ def inject(state: LciState, dx: np.ndarray, layout: StateLayout = INS_15) -> Lci
         s.gyro_bias_b_radps = s.gyro_bias_b_radps - dx[layout.sl("bg")]
     if layout.has("ba"):
         s.accel_bias_b_mps2 = s.accel_bias_b_mps2 - dx[layout.sl("ba")]
+    for name in ("sg", "sa"):
+        if layout.has(name):
+            s.extra[name] = s.extra.get(name, np.zeros(3)) - dx[layout.sl(name)]
     return s

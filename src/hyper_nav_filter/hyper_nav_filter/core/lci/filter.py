@@ -8,7 +8,8 @@ What differs from the ENU filter:
     (J2 by default);
   * the covariance is propagated with the 15-state LCI error model
     (``lci.error_model.system_matrices``): the error state att/vel/pos is in
-    LCI axes (phi_a, dv_a inertial, dr_a), bg/ba in body axes;
+    LCI axes (phi_a, dv_a inertial, dr_a), bg/ba in body axes; the optional
+    scale-factor blocks sg/sa (body) make it 21 states;
   * GNSS position/velocity fixes (``GnssPosition`` / ``GnssVelocity``, geodetic
     + ENU covariance) are converted to ECEF and applied with
     ``gnss_position_ecef`` / ``gnss_velocity_ecef``; other measurement kinds
@@ -50,7 +51,7 @@ from . import mechanization as lci_mech
 from .frames import OMEGA_IE_RADPS, LaunchFrame
 from .gravity import make_gravity
 
-SUPPORTED_BLOCKS = ("att", "vel", "pos", "bg", "ba")
+SUPPORTED_BLOCKS = ("att", "vel", "pos", "bg", "ba", "sg", "sa")
 
 
 class UnsupportedMeasurement(TypeError):
@@ -115,18 +116,20 @@ class LciErrorStateKF(ErrorStateKF):
             self._C_n_a_cache = C_e_a @ C_n_e
             self._nav = NavState(float(s.t_s), float(lat), float(lon), float(alt), C_n_e.T @ v_e,
                                  self._C_n_a_cache.T @ s.C_b_a, s.gyro_bias_b_radps.copy(),
-                                 s.accel_bias_b_mps2.copy())
+                                 s.accel_bias_b_mps2.copy(), {k: v.copy() for k, v in s.extra.items()})
         return self._nav
 
     @state.setter
     def state(self, nav: NavState) -> None:
-        if nav.extra:
-            raise ConfigError(f"the LCI filter carries no extra blocks, got {sorted(nav.extra)}")
+        unsupported = sorted(set(nav.extra) - set(SUPPORTED_BLOCKS))
+        if unsupported:
+            raise ConfigError(f"the LCI filter carries no extra blocks {unsupported}")
         r_a, v_a, C_b_a = self.frame.geodetic_to_lci(nav.lat_rad, nav.lon_rad, nav.alt_m, nav.vel_enu_mps,
                                                      nav.C_b_n, nav.t_s)
         self._lci = lci_mech.LciState(float(nav.t_s), np.asarray(r_a, float), np.asarray(v_a, float),
                                       np.asarray(C_b_a, float), np.asarray(nav.gyro_bias_b_radps, float).copy(),
-                                      np.asarray(nav.accel_bias_b_mps2, float).copy())
+                                      np.asarray(nav.accel_bias_b_mps2, float).copy(),
+                                      {k: np.asarray(v, float).copy() for k, v in nav.extra.items()})
         self._nav = None
 
     # ---- error-frame conversion ---------------------------------------------------

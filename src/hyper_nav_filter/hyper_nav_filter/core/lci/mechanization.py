@@ -65,11 +65,14 @@ class LciState:
     C_b_a: np.ndarray
     gyro_bias_b_radps: np.ndarray = field(default_factory=lambda: np.zeros(3))
     accel_bias_b_mps2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # nominal scale factors of the optional blocks {"sg": ..., "sa": ...} (dimensionless)
+    extra: dict = field(default_factory=dict)
 
     def copy(self) -> "LciState":
         return replace(self, r_a_m=self.r_a_m.copy(), v_a_mps=self.v_a_mps.copy(), C_b_a=self.C_b_a.copy(),
                        gyro_bias_b_radps=self.gyro_bias_b_radps.copy(),
-                       accel_bias_b_mps2=self.accel_bias_b_mps2.copy())
+                       accel_bias_b_mps2=self.accel_bias_b_mps2.copy(),
+                       extra={k: v.copy() for k, v in self.extra.items()})
 
 
 @dataclass(frozen=True)
@@ -94,9 +97,16 @@ class BodyIncrements:
 
 
 def compensate(imu: ImuSample, state: LciState) -> tuple[np.ndarray, np.ndarray]:
-    """Remove the estimated biases from the increments."""
-    return (imu.dtheta_b_rad - state.gyro_bias_b_radps * imu.dt_s,
-            imu.dvel_b_mps - state.accel_bias_b_mps2 * imu.dt_s)
+    """Remove the estimated biases, then the scale factors, from the increments
+    (omega = (omega_meas - b) / (1 + s), as ``NavState.compensate``)."""
+    dth = imu.dtheta_b_rad - state.gyro_bias_b_radps * imu.dt_s
+    dv = imu.dvel_b_mps - state.accel_bias_b_mps2 * imu.dt_s
+    sg, sa = state.extra.get("sg"), state.extra.get("sa")
+    if sg is not None:
+        dth = dth / (1.0 + sg)
+    if sa is not None:
+        dv = dv / (1.0 + sa)
+    return dth, dv
 
 
 def _cross_rows(u, v):
@@ -165,7 +175,7 @@ def apply_increments(state: LciState, inc: BodyIncrements, gravity) -> LciState:
     v1 = v0 + C0 @ inc.dv_sf_b_mps + g_mid * T
     r1 = r0 + v0 * T + C0 @ inc.dr_sf_b_m + g_mid * (0.5 * T * T)
     C1 = orthonormalize(C0 @ rotvec_to_C(inc.phi_b_rad))
-    return LciState(state.t_s + T, r1, v1, C1, state.gyro_bias_b_radps, state.accel_bias_b_mps2)
+    return LciState(state.t_s + T, r1, v1, C1, state.gyro_bias_b_radps, state.accel_bias_b_mps2, state.extra)
 
 
 def propagate(state: LciState, imu: ImuSample, imu_prev: ImuSample | None, gravity,
@@ -205,8 +215,8 @@ def propagate_batch(state: LciState, t_s, dt_s: float, dtheta_b_rad, dvel_b_mps,
 
     t_s (N,), dtheta_b_rad/dvel_b_mps (N, 3) over (t - dt, t]. Returns the final
     state and, if every > 0, the list of states at every ``every``-th sample."""
-    dth = np.asarray(dtheta_b_rad, float) - state.gyro_bias_b_radps * dt_s
-    dv = np.asarray(dvel_b_mps, float) - state.accel_bias_b_mps2 * dt_s
+    dth, dv = compensate(ImuSample(float(t_s[-1]), dt_s, np.asarray(dtheta_b_rad, float),
+                                   np.asarray(dvel_b_mps, float)), state)     # row-wise broadcast
     dth_p, dv_p = np.empty_like(dth), np.empty_like(dv)
     dth_p[1:], dv_p[1:] = dth[:-1], dv[:-1]
     if imu_prev is None:

@@ -86,86 +86,114 @@ def lci_config(sc, **kw):
                                launch_azimuth_deg=SEED001_AZIMUTH_DEG, **kw)
 
 
+PAPER_15 = ("att", "vel", "pos", "bg", "ba")
+
+
 @functools.lru_cache(maxsize=None)
-def seed001_run(scale_factors: bool):
+def seed001_run(state_blocks: tuple | None = None):
+    """Seed 001 through the LCI filter of the scenario (21 states: the paper's
+    15 + gyro/accel scale factors), or with other ``state_blocks``."""
     sc = load_scenario("seed001")
-    if not scale_factors:
-        sc.data["imu"]["gyro_scale_factor_ppm"] = 0.0
-        sc.data["imu"]["accel_scale_factor_ppm"] = 0.0
-    sols, eng, traj, secs = fly(sc, lci_config(sc), decimate=5)
+    cfg = sc.filter_config()
+    assert cfg.mechanization_frame == "LCI" and cfg.launch_azimuth_deg == SEED001_AZIMUTH_DEG
+    if state_blocks is not None:
+        cfg = dataclasses.replace(cfg, state_blocks=state_blocks)
+    sols, eng, traj, secs = fly(sc, cfg, decimate=5)
     truth = ImuErrors.from_scenario(sc)
     return sols, eng, traj, secs, truth
 
 
 def _report(label, sols, eng, traj, secs, truth):
-    _, err = per_axis_errors(sols, traj, CONVERGED_S)
-    s = summarize(err)
+    out = {}
+    for t_from in (CONVERGED_S, BIAS_FROM_S):
+        _, err = per_axis_errors(sols, traj, t_from)
+        out[t_from] = summarize(err)
+    s = out[CONVERGED_S]
     last = sols[-1].state
     bg_est, ba_est = last.gyro_bias_b_radps, last.accel_bias_b_mps2
     print(f"\n[{label}] run {secs:.1f} s, {eng.kf.n_updates} updates, {eng.kf.n_rejected} rejected")
     for k, unit in (("att", "deg"), ("vel", "m/s"), ("pos", "m")):
         print(f"  {k} t>={CONVERGED_S:.0f}s RMS ENU {np.round(s[k][0], 4)} max {np.round(s[k][1], 4)} {unit}")
+    print(f"  att t>={BIAS_FROM_S:.0f}s RMS ENU {np.round(out[BIAS_FROM_S]['att'][0], 4)} deg")
     print(f"  gyro bias est {np.round(np.rad2deg(bg_est) * 3600, 3)} truth "
           f"{np.round(np.rad2deg(truth.gyro_bias_b_radps) * 3600, 3)} deg/h")
     print(f"  accel bias est {np.round(ba_est / 9.80665e-6, 1)} truth {np.round(truth.accel_bias_b_mps2 / 9.80665e-6, 1)} ug")
-    return s
+    return out
 
 
-def _bias_rel_errors(sols, truth):
-    """Max over t >= BIAS_FROM_S of the relative bias errors per axis."""
-    late = [x for x in sols if x.t_s >= BIAS_FROM_S]
+def _bias_errors(sols, truth, t_from=BIAS_FROM_S):
+    """Over t >= t_from: max relative bias error per axis (gyro, accel) and the
+    max of |error| / filter sigma for the gyro bias."""
+    late = [x for x in sols if x.t_s >= t_from]
     bg = np.array([x.state.gyro_bias_b_radps for x in late])
     ba = np.array([x.state.accel_bias_b_mps2 for x in late])
+    sig_bg = np.sqrt(np.array([np.diag(x.P)[9:12] for x in late]))      # ENU P, bg block of att vel pos bg
     rg = np.max(np.abs(bg - truth.gyro_bias_b_radps) / np.abs(truth.gyro_bias_b_radps), axis=0)
     ra = np.max(np.abs(ba - truth.accel_bias_b_mps2) / np.abs(truth.accel_bias_b_mps2), axis=0)
-    print(f"  max rel bias error t>={BIAS_FROM_S:.0f}s gyro {np.round(rg, 3)} accel {np.round(ra, 3)}")
-    return rg, ra
+    zg = np.max(np.abs(bg - truth.gyro_bias_b_radps) / sig_bg, axis=0)
+    print(f"  max rel bias error t>={t_from:.0f}s gyro {np.round(rg, 3)} accel {np.round(ra, 3)}; "
+          f"gyro |err|/sigma {np.round(zg, 2)}")
+    return rg, ra, zg
 
 
-def test_seed001_lci_accuracy_after_convergence():
-    """Seed 001 from t >= 100 s, per ENU axis RMS, with the scenario's
-    100 ppm scale-factor errors (not in the 15-state model).
-    Issue: velocity < 0.2 m/s, position < 10 m -> met (measured RMS
-    <= 0.08 m/s, <= 1.7 m). Attitude < 0.05 deg -> NOT met: measured RMS
-    (0.095, 0.068, 0.160) deg E/N/U, and the ENU filter gives the same
-    (0.094, 0.068, 0.164) on the same data, so it is the observability of
-    this flight (heading in the low-acceleration glide, gyro ARW
-    0.3 deg/sqrt(h)), not the LCI mechanization. Asserted: 0.2 deg RMS."""
-    sols, eng, traj, secs, truth = seed001_run(True)
-    s = _report("seed001 LCI, 100 ppm scale factors", sols, eng, traj, secs, truth)
-    _bias_rel_errors(sols, truth)
-    assert sols[-1].t_s == pytest.approx(600.0)
-    assert sols[-1].mode == MODE_LOOSELY_COUPLED
-    assert eng.kf.n_rejected == 0
-    assert np.all(s["vel"][0] < 0.2), s["vel"]
-    assert np.all(s["pos"][0] < 10.0), s["pos"]
-    assert np.all(s["att"][0] < 0.2), s["att"]
-    assert np.all(np.linalg.eigvalsh(sols[-1].P) > 0)
-
-
-def test_seed001_lci_bias_estimates_without_scale_factor_errors():
-    """Scale factors set to 0: the same accuracy (so the scale factors are
-    not what limits it) and the final bias estimates within 30 % of the
-    truth (measured: gyro 2.68/-2.74/3.82 deg/h vs 3/-3/3, i.e. 11/9/27 %;
-    accel 912/-965/923 ug vs 1000/-1000/1000, i.e. 9/4/8 %)."""
-    sols, eng, traj, secs, truth = seed001_run(False)
-    s = _report("seed001 LCI, scale factors 0", sols, eng, traj, secs, truth)
-    _bias_rel_errors(sols, truth)
-    assert np.all(s["vel"][0] < 0.2) and np.all(s["pos"][0] < 10.0) and np.all(s["att"][0] < 0.2), s
+def _final_rel(sols, truth):
     last = sols[-1].state
     rg = np.abs(last.gyro_bias_b_radps - truth.gyro_bias_b_radps) / np.abs(truth.gyro_bias_b_radps)
     ra = np.abs(last.accel_bias_b_mps2 - truth.accel_bias_b_mps2) / np.abs(truth.accel_bias_b_mps2)
-    assert np.all(rg < 0.3) and np.all(ra < 0.3), (rg, ra)
+    return rg, ra
 
 
-@pytest.mark.xfail(strict=True, reason="issue requirement not met by the 15-state filter on this flight "
-                   "(ENU filter alike): attitude RMS 0.07-0.16 deg > 0.05, gyro bias z 27 % off at 600 s")
+def test_seed001_lci_accuracy_and_biases():
+    """Seed 001 (500 Hz IMU with 100 ppm scale factors, BDS 10 m / 0.3 m/s at
+    1 Hz), LCI filter with scale-factor states, per ENU axis.
+    Measured: attitude RMS t >= 100 s (0.053, 0.009, 0.011) deg, the East
+    (roll-axis) term from the zero-g coast 100-185 s; t >= 200 s (0.019,
+    0.004, 0.012) deg; velocity <= 0.08 m/s, position <= 2 m RMS;
+    accelerometer biases within 10 % at every t >= 200 s (max 5/10/5 %),
+    gyro biases within 3 % at the end. Asserted: those with margins."""
+    sols, eng, traj, secs, truth = seed001_run()
+    out = _report("seed001 LCI, 21 states", sols, eng, traj, secs, truth)
+    rg, ra, zg = _bias_errors(sols, truth)
+    assert sols[-1].t_s == pytest.approx(560.0)
+    assert sols[-1].mode == MODE_LOOSELY_COUPLED
+    assert eng.kf.n_rejected == 0
+    s, s200 = out[CONVERGED_S], out[BIAS_FROM_S]
+    assert np.all(s["vel"][0] < 0.2), s["vel"]
+    assert np.all(s["pos"][0] < 10.0), s["pos"]
+    assert np.all(s["att"][0] < 0.07), s["att"]
+    assert np.all(s200["att"][0] < 0.05), s200["att"]
+    assert np.all(ra < 0.1), ra
+    assert np.all(zg < 3.5), zg                  # the gyro bias error stays inside its own 3.5 sigma
+    fg, fa = _final_rel(sols, truth)
+    assert np.all(fg < 0.1) and np.all(fa < 0.1), (fg, fa)
+    assert np.all(np.linalg.eigvalsh(sols[-1].P) > 0)
+
+
+def test_seed001_paper_15_state_filter():
+    """The paper's 15-state filter on the same data: the scale factors are
+    unmodelled, so under the 7 g boost 100 ppm looks like 0.7 mg of x
+    accelerometer bias. Measured: attitude RMS t >= 200 s within 0.05 deg,
+    velocity/position inside the paper's limits, accelerometer x bias off by
+    up to ~22 % after 200 s and ~10 % at the end. Asserted: the paper's
+    accuracy limits (att t >= 200 s < 0.06 deg), final biases within 20 %."""
+    sols, eng, traj, secs, truth = seed001_run(PAPER_15)
+    out = _report("seed001 LCI, paper's 15 states", sols, eng, traj, secs, truth)
+    _bias_errors(sols, truth)
+    s = out[CONVERGED_S]
+    assert np.all(s["vel"][0] < 0.2) and np.all(s["pos"][0] < 10.0), s
+    assert np.all(out[BIAS_FROM_S]["att"][0] < 0.06), out[BIAS_FROM_S]["att"]
+    fg, fa = _final_rel(sols, truth)
+    assert np.all(fg < 0.2) and np.all(fa < 0.2), (fg, fa)
+
+
+@pytest.mark.xfail(strict=True, reason="gyro bias not within 10 % at every t >= 200 s: at 200 s, right after "
+                   "the zero-g coast, the filter's own sigma of the roll-axis gyro bias is ~75 % of its value")
 def test_seed001_issue_requirements_strict():
-    """The issue's figures as stated: attitude < 0.05 deg RMS per axis
-    (t >= 100 s) and every bias estimate within 10 % for all t >= 200 s."""
-    sols, eng, traj, secs, truth = seed001_run(False)
+    """The issue's figures as literally stated: attitude < 0.05 deg RMS per axis
+    from t >= 100 s and every bias estimate within 10 % for all t >= 200 s."""
+    sols, eng, traj, secs, truth = seed001_run()
     _, err = per_axis_errors(sols, traj, CONVERGED_S)
-    rg, ra = _bias_rel_errors(sols, truth)
+    rg, ra, _ = _bias_errors(sols, truth)
     assert np.all(summarize(err)["att"][0] < 0.05)
     assert np.all(rg < 0.1) and np.all(ra < 0.1)
 
