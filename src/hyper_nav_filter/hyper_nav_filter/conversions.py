@@ -6,12 +6,21 @@ sensor_msgs/Imu mapping (documented in the README): the IMU node integrates
 over (previous stamp, header.stamp]; ``angular_velocity`` = delta-theta / dt
 and ``linear_acceleration`` = delta-v / dt (FLU body, rad/s and m/s^2, float64),
 so increments are recovered exactly as rate * (stamp - previous stamp).
+
+hyper_nav_msgs/GnssMeasurements and GnssEphemeris map to the tightly coupled
+core types (``core.gnss.raw_to_pseudoranges.RawGnssEpoch``,
+``core.gnss.ephemeris.BroadcastEphemeris``); system codes 1 (GPS) -> 'G',
+3 (BDS) -> 'C', others -> '?<code>' (dropped as unsupported downstream).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .core.gnss.ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris
+from .core.gnss.raw_to_pseudoranges import RawGnssEpoch
 from .core.measurements import GnssPosition, GnssVelocity
+
+GNSS_SYSTEMS = {1: "G", 3: "C"}          # hyper_nav_msgs SYSTEM_GPS, SYSTEM_BDS
 
 
 def stamp_to_s(stamp) -> float:
@@ -43,3 +52,30 @@ def gnss_velocity(msg) -> GnssVelocity:
     v = msg.twist.twist.linear
     cov = np.asarray(msg.twist.covariance, dtype=float).reshape(6, 6)[:3, :3]
     return GnssVelocity(stamp_to_s(msg.header.stamp), np.array([v.x, v.y, v.z]), cov)
+
+
+def _system(code) -> str:
+    return GNSS_SYSTEMS.get(int(code), f"?{int(code)}")
+
+
+def gnss_raw(msg) -> RawGnssEpoch:
+    """hyper_nav_msgs/GnssMeasurements -> RawGnssEpoch (no validation here:
+    the core checks lengths and values, ``check_raw_epoch``)."""
+    def arr(name, dtype=float):
+        return np.asarray(list(getattr(msg, name)), dtype=dtype)
+    return RawGnssEpoch(
+        stamp_to_s(msg.header.stamp), float(msg.gps_week) * SECONDS_PER_WEEK + float(msg.rx_time_of_week_s),
+        tuple(_system(c) for c in msg.system), arr("prn", int), arr("pseudorange_m"),
+        arr("pseudorange_sigma_m"), arr("pseudorange_rate_mps"), arr("pseudorange_rate_sigma_mps"),
+        arr("locked", bool))
+
+
+def gnss_ephemeris(msg) -> BroadcastEphemeris:
+    """hyper_nav_msgs/GnssEphemeris -> BroadcastEphemeris (times of week in the
+    system's own scale, as in the message)."""
+    return BroadcastEphemeris(
+        _system(msg.system), int(msg.prn), float(msg.toe_s), float(msg.toc_s), int(msg.week),
+        float(msg.sqrt_a_sqrtm), float(msg.e), float(msg.i0_rad), float(msg.omega0_rad), float(msg.omega_rad),
+        float(msg.m0_rad), float(msg.delta_n_radps), float(msg.idot_radps), float(msg.omega_dot_radps),
+        float(msg.cuc_rad), float(msg.cus_rad), float(msg.crc_m), float(msg.crs_m), float(msg.cic_rad),
+        float(msg.cis_rad), float(msg.af0_s), float(msg.af1_sps), float(msg.af2_sps2), float(msg.tgd_s))

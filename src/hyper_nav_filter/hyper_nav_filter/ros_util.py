@@ -5,13 +5,21 @@ import signal
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 
 def publisher_qos(depth: int) -> QoSProfile:
     """Reliable, keep-last ``depth``: deep enough for the IMU rate so that a
     paced graph loses nothing (see README, QoS)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE)
+
+
+def latched_qos(depth: int) -> QoSProfile:
+    """Reliable, transient local, keep-last ``depth``: for data a late joiner
+    needs (``gnss/ephemeris``: one message per satellite and record, so the
+    depth must cover every record in use)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def subscriber_qos(reliable: bool, depth: int) -> QoSProfile:

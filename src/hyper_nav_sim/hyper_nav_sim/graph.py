@@ -44,7 +44,8 @@ from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
-FUSION_INPUTS = {"imu/data_raw", "gnss/fix", "gnss/vel"}
+FUSION_INPUTS = {"loose": {"imu/data_raw", "gnss/fix", "gnss/vel"},          # by filter.gnss_mode
+                 "tight": {"imu/data_raw", "gnss/raw", "gnss/ephemeris"}}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
@@ -92,7 +93,10 @@ def fusion_parameters(sc: Scenario) -> dict:
         "init.q_b_enu_xyzw": [float(x) for x in C_to_quat_xyzw(init.C_b_n)],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
         "origin.alt_m": float(start.alt_m[0]), "qos.depth": int(sc["graph.qos_depth"]),
+        "filter.gnss_mode": sc["filter.gnss_mode"],
     })
+    if sc["filter.gnss_mode"] == "tight":
+        params.update(sc.tight_gnss_parameters())
     return params
 
 
@@ -122,7 +126,7 @@ class Graph:
     def _subscribers(self, topics) -> int:
         """How many subscriptions the publishers of these topics must see."""
         n = 1 if self.record else 0
-        if "fusion" in self.nodes and FUSION_INPUTS & set(topics):
+        if "fusion" in self.nodes and FUSION_INPUTS[self.scenario["filter.gnss_mode"]] & set(topics):
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
@@ -130,6 +134,8 @@ class Graph:
         sc_path = str(self.scenario.path)
         if name in SENSOR_TOPICS:
             p = {"scenario": sc_path, "min_subscribers": self._subscribers(SENSOR_TOPICS[name])}
+            if name == "gnss":
+                p["raw_min_subscribers"] = self._subscribers(["gnss/raw"])
         elif name == "truth":
             sensors = sum(1 for n in self.nodes if n in SENSOR_TOPICS)
             p = {"scenario": sc_path, "clock_subscribers": sensors + (1 if self.record else 0) + self.extra.get("/clock", 0),

@@ -57,6 +57,9 @@ def errors(nav: dict, truth: dict) -> dict:
 
 def summarize(err: dict, skip_s: float) -> dict:
     m = err["t"] >= skip_s
+    if not m.any():
+        raise ValueError(f"no solution epochs at or after report.skip_s = {skip_s} s "
+                         f"(the run ends at {err['t'].max():.1f} s); lower it with --set report.skip_s=...")
     out = {"skip_s": skip_s, "epochs": int(m.sum())}
     for key in ("pos_enu_m", "vel_enu_mps", "att_enu_deg"):
         e = err[key][m]
@@ -163,6 +166,9 @@ def _args(argv, prog):
     ap.add_argument("bag")
     ap.add_argument("--scenario", default="default")
     ap.add_argument("--set", action="append", default=[])
+    if prog == "replay_filter":
+        ap.add_argument("--smooth", action="store_true",
+                        help="also run the fixed-interval RTS smoother and print its errors next to the filter's")
     return ap.parse_args(argv)
 
 
@@ -196,14 +202,24 @@ def replay_main(argv=None) -> int:
     args = _args(argv, "replay_filter")
     sc = _scenario(args)
     reader = read_bag(args.bag)
+    tight = sc.tight_gnss_input() if sc["filter.gnss_mode"] == "tight" else None
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader
-               if r.topic.lstrip("/") in ("imu/data_raw", "gnss/fix", "gnss/vel", "truth/state")]
+               if r.topic.lstrip("/") in ("imu/data_raw", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris",
+                                          "truth/state")]
     if reader.truncated:
         print(f"[replay_filter] WARNING: bag is truncated ({reader.error}); replaying what was readable")
-    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state())
+    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), tight=tight,
+                            final=args.smooth, keep_history=args.smooth)
     truth = states_from_msgs([m for t, m in records if t.lstrip("/") == "truth/state"])
     summary = summarize(errors(states_from_solutions(sols), truth), sc["report.skip_s"])
     print(format_table(summary, _limits(sc), _reference(sc)))
+    if args.smooth:
+        from hyper_nav_filter.offline import smooth
+        sm = summarize(errors(states_from_solutions(smooth(eng)), truth), sc["report.skip_s"])
+        print("fixed-interval RTS smoother over the same pass:")
+        print(format_table(sm, _limits(sc), _reference(sc)))
+        print("filter vs smoother, RMS 3D: " + ", ".join(
+            f"{k} {summary[k]['rms_3d']:.4g} -> {sm[k]['rms_3d']:.4g}" for k in ("pos_enu_m", "vel_enu_mps", "att_enu_deg")))
     print(f"engine counters: {dict(eng.counters)}")
     return 0
 

@@ -10,7 +10,11 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from . import units
+from .elastic_lever_arm import TABLE2_FREQ_RADPS, free_free_beam_mode_shapes
 from .state_layout import StateLayout
+
+_MODE_SHAPE_IMU = tuple(float(x) for x in free_free_beam_mode_shapes(0.30))
+_LOAD_PARTICIPATION = tuple(float(x) for x in free_free_beam_mode_shapes(0.55))
 
 
 class ConfigError(ValueError):
@@ -37,6 +41,24 @@ class FilterConfig:
     # scale-factor blocks sg / sa: random constants, initial sigma (ppm)
     gyro_scale_factor_sigma_ppm: float = 100.0
     accel_scale_factor_sigma_ppm: float = 100.0
+    # elastic lever arm (block "lev" = modal q, q', seed 000 eqs. 9-13, 17-23): the
+    # filter's structural model (defaults: uniform free-free beam, IMU at x/l 0.30,
+    # centre of pressure at 0.55, Table 2 frequencies; see core.elastic_lever_arm)
+    lever_arm_r0_b_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    lever_arm_natural_freq_radps: tuple[float, float, float] = TABLE2_FREQ_RADPS
+    lever_arm_damping_ratio: tuple[float, float, float] = (0.02, 0.02, 0.02)
+    lever_arm_mode_shape_at_imu: tuple[float, float, float] = _MODE_SHAPE_IMU
+    lever_arm_deflection_axis_b: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    lever_arm_load_participation: tuple[float, float, float] = _LOAD_PARTICIPATION
+    lever_arm_generalized_mass_kg: tuple[float, float, float] = (1000.0, 1000.0, 1000.0)
+    lever_arm_vehicle_mass_kg: float = 1000.0
+    # initial sigmas of q, q' and the PSD of the modal noise w_q on q'' ((m/s^2)^2/Hz):
+    # the nominal modal state is driven by the measured load, so these are small
+    # (seed 000, 10 Hz GNSS: 10x larger values let velocity noise leak into the
+    # modes and raise the vertical velocity error by 40 %)
+    lever_arm_q_sigma_m: float = 1e-3
+    lever_arm_qdot_sigma_mps: float = 1e-2
+    lever_arm_modal_psd: float = 1e-6
     # receiver clock (block "clk"): initial sigmas and random-walk PSDs
     clock_bias_sigma_m: float = 100.0
     clock_drift_sigma_mps: float = 1.0
@@ -81,6 +103,14 @@ class FilterConfig:
                      "reprocess_window_s"):
             if getattr(self, name) <= 0:
                 raise ConfigError(f"filter config field '{name}' must be > 0")
+        for name in ("lever_arm_natural_freq_radps", "lever_arm_generalized_mass_kg", "lever_arm_vehicle_mass_kg"):
+            if np.any(np.asarray(getattr(self, name), float) <= 0):
+                raise ConfigError(f"filter config field '{name}' must be > 0")
+        if np.any(np.asarray(self.lever_arm_damping_ratio, float) < 0) or \
+                np.any(np.asarray(self.lever_arm_damping_ratio, float) >= 1):
+            raise ConfigError("filter config field 'lever_arm_damping_ratio' must be in [0, 1) (under-damped modes)")
+        if np.linalg.norm(np.asarray(self.lever_arm_deflection_axis_b, float)) == 0:
+            raise ConfigError("filter config field 'lever_arm_deflection_axis_b' must be non-zero")
         for name, allowed in _STRING_FIELDS.items():
             if getattr(self, name) not in allowed:
                 raise ConfigError(f"filter config field '{name}' must be one of {allowed}, "
@@ -115,6 +145,7 @@ class FilterConfig:
             "ba": np.full(3, 2 * units.ug(self.accel_bias_sigma_ug) ** 2 / self.accel_bias_tau_s),
             "gm": np.full(3, 2 * units.deg_per_hr(self.gyro_markov_sigma_deg_per_hr) ** 2 / self.gyro_markov_tau_s),
             "clk": np.array([self.clock_bias_psd_m2ps, self.clock_drift_psd_m2ps3]),
+            "lev": np.full(3, self.lever_arm_modal_psd),
         }
         parts = [("w_g", np.full(3, arw**2)), ("w_a", np.full(3, vrw**2))]
         parts += [(name, driving[name]) for name in layout.names if name in driving]
@@ -135,7 +166,8 @@ class FilterConfig:
                 "gm": np.full(3, units.deg_per_hr(self.gyro_markov_sigma_deg_per_hr)),
                 "clk": np.array([self.clock_bias_sigma_m, self.clock_drift_sigma_mps]),
                 "sg": np.full(3, self.gyro_scale_factor_sigma_ppm * 1e-6),
-                "sa": np.full(3, self.accel_scale_factor_sigma_ppm * 1e-6)}
+                "sa": np.full(3, self.accel_scale_factor_sigma_ppm * 1e-6),
+                "lev": np.concatenate([np.full(3, self.lever_arm_q_sigma_m), np.full(3, self.lever_arm_qdot_sigma_mps)])}
         for name in lay.names:
             s = lay.sl(name)
             P[s, s] = np.diag(diag[name] ** 2)

@@ -16,6 +16,7 @@ from scipy.stats import chi2
 from . import earth, mechanization
 from .attitude import rotvec_to_C
 from .config import FilterConfig
+from .elastic_lever_arm import LeverArmCompensator, ModalModel
 from .error_model import discretize, system_matrices
 from .nav_state import ImuSample, NavState
 from .state_layout import BLOCK_SIZES, EXTRA_BLOCKS
@@ -62,6 +63,7 @@ class ErrorStateKF:
         self.epoch_dx = np.zeros(self.layout.dim)
         self._gate = {}
         self._noise = config.noise_psd(self.layout)
+        self._lever = LeverArmCompensator(ModalModel.from_config(config)) if self.layout.has("lev") else None
 
     # ---- bookkeeping for re-processing -------------------------------------
     def snapshot(self) -> FilterSnapshot:
@@ -80,16 +82,56 @@ class ErrorStateKF:
 
     # ---- predict ----------------------------------------------------------------
     def predict(self, imu: ImuSample) -> None:
-        """Mechanize one IMU interval and propagate the covariance."""
+        """Mechanize one IMU interval and propagate the covariance. With the
+        ``lev`` block the velocity increment is first moved from the IMU
+        station to the CG (``_compensate_lever``)."""
         prior = self.state
+        wdot, lev1 = None, None
+        if self._lever is not None:
+            imu, lev1, wdot = self._compensate_lever(imu, prior)
         dth, dv = mechanization.compensate(imu, prior)
         F, G, Qc = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout, self.cfg,
-                                    self._noise)
-        Phi, Q = discretize(F, G, Qc, imu.dt_s)
+                                    self._noise, wdot, self._lever.model if self._lever else None)
+        Phi, Q = discretize(F, G, Qc, imu.dt_s, exact=self._lever is not None)
         self.state = mechanization.propagate(prior, imu, self.imu_prev, self.vel_prev_enu_mps)
+        self.state.extra = self._propagate_extra(prior.extra, imu.dt_s, lev1)
         self.vel_prev_enu_mps = prior.vel_enu_mps
         self.imu_prev = imu
         self._propagate_covariance(Phi, Q)
+
+    def _propagate_extra(self, extra: dict, dt_s: float, lev1) -> dict:
+        """Nominal values of the optional blocks over one interval, as their
+        error models say: the clock bias integrates the drift (b' = d), the
+        Markov gyro drift decays (gm' = -gm / T_g), the modes were stepped by
+        the lever-arm compensation; scale factors are constants."""
+        out = dict(extra)
+        if "clk" in out:
+            b, d = out["clk"]
+            out["clk"] = np.array([b + d * dt_s, d])
+        if "gm" in out:
+            out["gm"] = out["gm"] * np.exp(-dt_s / self.cfg.gyro_markov_tau_s)
+        if lev1 is not None:
+            out["lev"] = lev1
+        return out
+
+    def _compensate_lever(self, imu: ImuSample, prior: NavState):
+        """Dynamic lever-arm compensation (seed 000 Fig. 3): propagate the
+        nominal modal state over the interval and remove the lever-arm
+        velocity increment from the raw sample. Returns (compensated sample,
+        modal state at its end, angular acceleration)."""
+        dth_c, dv_c = prior.compensate(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s)
+        w_prev = None
+        if self.imu_prev is not None:
+            w_prev = prior.compensate(self.imu_prev.dtheta_b_rad, self.imu_prev.dvel_b_mps,
+                                      self.imu_prev.dt_s)[0] / self.imu_prev.dt_s
+        lev = prior.extra.get("lev")
+        if lev is None:          # first interval: start at the static deflection
+            lev = self._lever.model.equilibrium(dv_c / imu.dt_s)
+            prior.extra["lev"] = lev
+        dv_cg, lev1, _, wdot = self._lever.compensate(lev, dth_c, dv_c, imu.dt_s, w_prev)
+        # removed from the raw increment (the scale-factor product s * dv_lever is neglected)
+        out = ImuSample(imu.t_s, imu.dt_s, imu.dtheta_b_rad, imu.dvel_b_mps - (dv_c - dv_cg))
+        return out, lev1, wdot
 
     def _propagate_covariance(self, Phi, Q) -> None:
         """P = Phi P Phi^T + Q (symmetrised); keep Phi and the prior for the smoother."""

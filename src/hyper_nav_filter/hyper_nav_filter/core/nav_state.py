@@ -46,14 +46,20 @@ class NavState:
         return self.gyro_bias_b_radps if gm is None else self.gyro_bias_b_radps + gm
 
     def compensate(self, dtheta_b_rad: np.ndarray, dvel_b_mps: np.ndarray, dt_s: float):
-        """IMU increments corrected with the estimated errors: bias (plus Markov
-        drift) removed, then the scale factors divided out,
-        omega = (omega_meas - b) / (1 + s) (exact for the model of core.state_layout)."""
-        dth = dtheta_b_rad - self.gyro_error_b_radps() * dt_s
-        dv = dvel_b_mps - self.accel_bias_b_mps2 * dt_s
-        sg, sa = self.extra.get("sg"), self.extra.get("sa")
-        if sg is not None:
-            dth = dth / (1.0 + sg)
-        if sa is not None:
-            dv = dv / (1.0 + sa)
-        return dth, dv
+        """IMU increments corrected with the estimated errors (``remove_imu_errors``)."""
+        return remove_imu_errors(dtheta_b_rad, dvel_b_mps, dt_s, self.gyro_error_b_radps(),
+                                 self.accel_bias_b_mps2, self.extra)
+
+
+def remove_imu_errors(dtheta_b_rad, dvel_b_mps, dt_s: float, gyro_error_b_radps, accel_bias_b_mps2, extra: dict):
+    """Bias (plus Markov drift) removed, then the scale factors of ``extra``
+    ("sg", "sa") divided out: omega = (omega_meas - b) / (1 + s), exact for
+    the model of core.state_layout. Shared by the ENU and LCI states."""
+    dth = dtheta_b_rad - gyro_error_b_radps * dt_s
+    dv = dvel_b_mps - accel_bias_b_mps2 * dt_s
+    sg, sa = extra.get("sg"), extra.get("sa")
+    if sg is not None:
+        dth = dth / (1.0 + sg)
+    if sa is not None:
+        dv = dv / (1.0 + sa)
+    return dth, dv

@@ -23,30 +23,44 @@ from .eskf import ErrorStateKF
 from .fusion import Solution
 
 
-def rts_smooth(history: list, cfg: FilterConfig) -> list[Solution]:
+def rts_smooth(history: list, cfg: FilterConfig, filt: ErrorStateKF | None = None) -> list[Solution]:
     """Smoothed solutions for every epoch of a forward pass (FusionEngine
-    with keep_history=True; pass ``engine.full_history()``)."""
+    with keep_history=True; pass ``engine.full_history()``).
+
+    The recursion runs in the forward filter's own error frame: ENU for
+    ``ErrorStateKF``, LCI for ``LciErrorStateKF`` (its snapshots carry the
+    LCI covariance, and ``last_Phi``/``P_prior``/``epoch_dx`` are LCI). Pass
+    the forward filter as ``filt`` (``engine.kf``; required for LCI, whose
+    launch frame it holds): it is used to apply the corrections and is left
+    restored to its final state. The returned solutions are in the ENU view."""
     n = len(history)
     if n == 0:
         return []
-    dim = cfg.layout.dim
+    if filt is None:
+        if cfg.mechanization_frame != "ENU":
+            raise ValueError("rts_smooth: pass the forward filter (engine.kf) for a "
+                             f"{cfg.mechanization_frame} filter")
+        filt = ErrorStateKF(cfg, history[-1].snap.state.copy(), history[-1].snap.P.copy())
+    final = filt.snapshot()
+    own_P = (lambda snap: snap.P_lci) if hasattr(final, "P_lci") else (lambda snap: snap.P)
     out: list[Solution | None] = [None] * n
-    e = np.zeros(dim)
-    Ps = history[-1].snap.P.copy()
-    out[-1] = _solution(history[-1], history[-1].snap.state.copy(), Ps)
-    helper = ErrorStateKF(cfg, history[-1].snap.state.copy(), Ps)
+    e = np.zeros(cfg.layout.dim)
+    Ps = own_P(history[-1].snap).copy()
+    out[-1] = _solution(history[-1], history[-1].snap.state.copy(), history[-1].snap.P.copy())
     for k in range(n - 2, -1, -1):
         h, h1 = history[k], history[k + 1]
-        P_post = h.snap.P
+        P_post = own_P(h.snap)
         c_next = -h1.dx
         # A = P+ Phi^T (P-)^-1  computed as solve(P-, Phi P+)^T (P- symmetric positive definite)
         A = cho_solve(cho_factor(h1.P_prior), h1.Phi @ P_post).T
         e = A @ (e + c_next)
         Ps = P_post + A @ (Ps - h1.P_prior) @ A.T
         Ps = 0.5 * (Ps + Ps.T)
-        helper.state = h.snap.state.copy()
-        helper.inject(-e)                      # move the filtered estimate by +e
-        out[k] = _solution(h, helper.state, Ps)
+        filt.restore(h.snap)
+        filt.inject(-e)                        # move the filtered estimate by +e
+        filt.P = Ps
+        out[k] = _solution(h, filt.state.copy(), filt.P_enu() if hasattr(filt, "P_enu") else Ps.copy())
+    filt.restore(final)
     return out
 
 

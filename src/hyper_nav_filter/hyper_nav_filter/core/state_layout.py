@@ -10,6 +10,7 @@ Blocks (frame, unit):
   clk  receiver clock bias (m) and drift (m/s) error (seed 004 eqs. 1-4)
   sg   gyro scale-factor error, body, dimensionless (omega_meas = (1 + sg) omega + bg)
   sa   accelerometer scale-factor error, body, dimensionless (f_meas = (1 + sa) f + ba)
+  lev  elastic lever-arm modal coordinates q (3) and rates q' (3) (seed 000 eqs. 9-13)
 Every error is estimate minus truth. Other modules ask the layout for slices
 (``layout.sl("vel")``) and never compute indices themselves.
 """
@@ -17,9 +18,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-BLOCK_SIZES = {"att": 3, "vel": 3, "pos": 3, "bg": 3, "ba": 3, "gm": 3, "clk": 2, "sg": 3, "sa": 3}
+BLOCK_SIZES = {"att": 3, "vel": 3, "pos": 3, "bg": 3, "ba": 3, "gm": 3, "clk": 2, "sg": 3, "sa": 3, "lev": 6}
 # Blocks that carry a nominal value besides the navigation state (NavState.extra).
-EXTRA_BLOCKS = ("gm", "clk", "sg", "sa")
+EXTRA_BLOCKS = ("gm", "clk", "sg", "sa", "lev")
 
 
 @dataclass(frozen=True)
@@ -59,3 +60,4 @@ class StateLayout:
 INS_15 = StateLayout(("att", "vel", "pos", "bg", "ba"))
 TIGHT_17 = StateLayout(("att", "vel", "pos", "bg", "ba", "clk"))        # seed 004
 INS_21_SF = StateLayout(("att", "vel", "pos", "bg", "ba", "sg", "sa"))  # 15 + scale factors
+ELASTIC_24 = StateLayout(("att", "vel", "pos", "bg", "gm", "ba", "lev"))  # seed 000 eq. 15

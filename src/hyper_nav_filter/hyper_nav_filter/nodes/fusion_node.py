@@ -1,7 +1,13 @@
 """Fusion node: the ESKF engine on live IMU and GNSS messages.
 
-Subscribes ``imu/data_raw`` (sensor_msgs/Imu), ``gnss/fix`` (NavSatFix) and
-``gnss/vel`` (TwistWithCovarianceStamped, ENU); publishes ``nav/state``
+Subscribes ``imu/data_raw`` (sensor_msgs/Imu) and, with ``filter.gnss_mode``
+``loose`` (default), ``gnss/fix`` (NavSatFix) and ``gnss/vel``
+(TwistWithCovarianceStamped, ENU); with ``tight``, ``gnss/raw``
+(hyper_nav_msgs/GnssMeasurements) and ``gnss/ephemeris``
+(hyper_nav_msgs/GnssEphemeris, reliable + transient local) instead, turned
+into pseudorange updates (``core.gnss.raw_to_pseudoranges``; the filter
+needs the ``clk`` state block; receiver corrections from the ``gnss.*``
+parameters, see ``TIGHT_GNSS_PARAMETERS``). Publishes ``nav/state``
 (hyper_nav_msgs/NavState), ``nav/odom`` (nav_msgs/Odometry), ``nav/fix``
 (NavSatFix) and ``/diagnostics``. All math is in ``hyper_nav_filter.core``.
 """
@@ -13,6 +19,7 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistWithCovarianceStamped
+from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
 from hyper_nav_msgs.msg import NavState as NavStateMsg
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
@@ -22,9 +29,11 @@ from .. import conversions
 from ..core.attitude import quat_xyzw_to_C
 from ..core.config import FilterConfig
 from ..core.fusion import FusionEngine
+from ..core.gnss.raw_to_pseudoranges import TIGHT_GNSS_PARAMETERS, check_gnss_mode, tight_gnss_input
 from ..core.nav_state import NavState
 from ..output import OutputFrames, navsatfix_fields, navstate_fields, odometry_fields
-from ..ros_util import all_matched, diagnostic_array, publisher_qos, run_node, subscriber_qos
+from ..ros_util import all_matched, diagnostic_array, latched_qos, publisher_qos, run_node, subscriber_qos
+from ..tight_input import TightGnssHandler
 
 
 class FusionNode(Node):
@@ -36,6 +45,8 @@ class FusionNode(Node):
                 default = list(f.default) if isinstance(f.default, tuple) else f.default
                 cfg[f.name] = self.declare_parameter(f"filter.{f.name}", default).value
         self.cfg = FilterConfig.from_dict(cfg)
+        self.gnss_mode = self.declare_parameter("filter.gnss_mode", "loose").value
+        check_gnss_mode(self.gnss_mode, self.cfg)
         p = {name: self.declare_parameter(name, default).value for name, default in [
             ("init.t_s", 0.0), ("init.lat_deg", 0.0), ("init.lon_deg", 0.0), ("init.alt_m", 0.0),
             ("init.vel_enu_mps", [0.0, 0.0, 0.0]), ("init.q_b_enu_xyzw", [0.0, 0.0, 0.0, 1.0]),
@@ -48,6 +59,11 @@ class FusionNode(Node):
                         p["init.alt_m"], np.asarray(p["init.vel_enu_mps"], float),
                         quat_xyzw_to_C(p["init.q_b_enu_xyzw"]))
         self.engine = FusionEngine(self.cfg, init)
+        self.tight = None
+        if self.gnss_mode == "tight":
+            tp = {name: self.declare_parameter(name, default).value
+                  for name, default in TIGHT_GNSS_PARAMETERS.items()}
+            self.tight = TightGnssHandler(self.engine, tight_gnss_input(tp))
         origin = [p["origin.lat_deg"], p["origin.lon_deg"], p["origin.alt_m"]]
         if not np.all(np.isfinite(origin)):
             origin = [p["init.lat_deg"], p["init.lon_deg"], p["init.alt_m"]]
@@ -70,15 +86,33 @@ class FusionNode(Node):
             return
         self._wait_timer.cancel()
         qos = subscriber_qos(self.p["qos.reliable_subscriptions"], self.p["qos.depth"])
-        self._subs = [self.create_subscription(Imu, "imu/data_raw", self._on_imu, qos),
-                      self.create_subscription(NavSatFix, "gnss/fix", self._on_fix, qos),
-                      self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._on_vel, qos)]
-        self.get_logger().info("outputs matched; subscribed to imu/data_raw, gnss/fix, gnss/vel")
+        self._subs = [self.create_subscription(Imu, "imu/data_raw", self._on_imu, qos)]
+        if self.tight is None:
+            self._subs += [self.create_subscription(NavSatFix, "gnss/fix", self._on_fix, qos),
+                           self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._on_vel, qos)]
+        else:
+            # ephemerides first: when both are ready, the executor takes them in creation order
+            self._subs += [self.create_subscription(GnssEphemeris, "gnss/ephemeris", self._on_ephemeris,
+                                                    latched_qos(max(int(self.p["qos.depth"]), 500))),
+                           self.create_subscription(GnssMeasurements, "gnss/raw", self._on_raw, qos)]
+        self.get_logger().info("outputs matched; subscribed to " + ", ".join(s.topic_name for s in self._subs))
 
     def _on_imu(self, msg):
         self.engine.counters["imu_msgs"] += 1
         self.engine.add_imu_rates(*conversions.imu_rates(msg))
+        if self.tight is not None:
+            self.tight.feed()
         self._publish(self.engine.release())
+
+    def _on_raw(self, msg):
+        self._warn(self.tight.on_raw(msg))
+
+    def _on_ephemeris(self, msg):
+        self._warn(self.tight.on_ephemeris(msg))
+
+    def _warn(self, reason):
+        if reason is not None:
+            self.get_logger().warning(f"rejected: {reason}", throttle_duration_sec=5.0)
 
     def _on_fix(self, msg):
         self.engine.counters["gnss_fix_msgs"] += 1
@@ -108,6 +142,9 @@ class FusionNode(Node):
         c["n_updates"] = self.engine.kf.n_updates
         c["n_rejected_gate"] = self.engine.kf.n_rejected
         c["last_nis"] = f"{self.engine.kf.last_nis:.3f}"
+        c["gnss_mode"] = self.gnss_mode
+        if self.tight is not None:
+            c.update(self.tight.diagnostics())
         for kind, (acc, rej, nis_sum) in self.engine.kf.stats.items():
             c[f"{kind}_accepted"] = acc
             c[f"{kind}_gated"] = rej

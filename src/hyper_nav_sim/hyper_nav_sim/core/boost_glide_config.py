@@ -290,10 +290,9 @@ SEED004 = {
 # Seed 001 (Chen et al., LCI SINS/BDS) boost-glide HWIL trajectory: its
 # Table 1 values are not in our copy of the text; launch site near Xi'an as in
 # its vehicle test (34.2N 108.8E), azimuth 90 deg, 560 s. Booster sized for a
-# ~Mach 13 burnout at 28 km (mass ratio 4, Isp ~ 280 s); a short coast above
-# the sensible atmosphere (apogee 54 km, specific force < 0.15 g from 100 to
-# 185 s), re-entry pull-up, glide at 35-36 km with a 1.5 g S-turn weave
-# (period 90 s), terminal dive at 470 s. Depressed rather than lofted: the
+# ~Mach 13 burnout at 25 km (mass ratio 4, Isp ~ 280 s); a short coast to
+# 43 km (specific force 0.15-0.4 g from 100 to 160 s), pull-up, glide from
+# 43 to 33 km with a 1.5 g S-turn weave (period 90 s), terminal dive at 470 s. Depressed rather than lofted: the
 # first version (pitch kick 30 deg) coasted to 83 km for 220 s at zero g,
 # where tilt about the velocity and the roll-axis gyro bias are unobservable
 # from position/velocity fixes (attitude error 0.1-0.3 deg until re-entry).
@@ -305,7 +304,7 @@ SEED001 = {
     "start": {"lat_deg": 34.2, "lon_deg": 108.8, "alt_m": 400.0, "speed_mps": 30.0,
               "gamma_deg": 90.0, "psi_deg": 90.0},
     "boost": {"thrust_n": 260000.0, "burn_time_s": 75.0, "mass_flow_kgps": 90.0, "vertical_s": 4.0,
-              "pitch_over_s": 30.0, "pitch_kick_deg": 31.0, "tail_off_s": 3.0, "blend_s": 20.0},
+              "pitch_over_s": 30.0, "pitch_kick_deg": 31.5, "tail_off_s": 3.0, "blend_s": 20.0},
     # terminal dive window ends beyond the flight: no recovery
     "maneuvers": [{"type": "s_turn", "t_start_s": 180.0, "t_end_s": 460.0, "load_g": 1.5, "period_s": 90.0},
                   {"type": "dive", "t_start_s": 470.0, "t_end_s": 700.0, "gamma_deg": -30.0}],

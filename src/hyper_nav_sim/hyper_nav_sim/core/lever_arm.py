@@ -59,20 +59,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-TABLE2_FREQ_RADPS = (20.8453, 50.0123, 98.7743)
-TABLE4_FREQ_RADPS = (20.1658, 55.3610, 113.0664)
-_FREE_FREE_BETA_L = (4.730040745, 7.853204624, 10.995607838)
-
-
-def free_free_beam_mode_shapes(x_over_l) -> np.ndarray:
-    """First three bending mode shapes W_i of a uniform free-free beam at
-    stations x/l (0 = nose), normalised to mean(W^2) = 1 over the length
-    (then M_i = total mass). Shape (..., 3)."""
-    xi = np.asarray(x_over_l, float)[..., None]
-    bl = np.asarray(_FREE_FREE_BETA_L)
-    sig = (np.cosh(bl) - np.cos(bl)) / (np.sinh(bl) - np.sin(bl))
-    z = bl * xi
-    return np.cosh(z) + np.cos(z) - sig * (np.sinh(z) + np.sin(z))
+# the beam shapes, the exact modal discretisation and eq. 1 are shared with the
+# filter's modal model (one implementation)
+from hyper_nav_filter.core.elastic_lever_arm import (TABLE2_FREQ_RADPS, TABLE4_FREQ_RADPS,  # noqa: F401
+                                                     free_free_beam_mode_shapes)
+from hyper_nav_filter.core.elastic_lever_arm import lever_arm_dvel as _lever_arm_dvel
+from hyper_nav_filter.core.elastic_lever_arm import zoh_matrices as _zoh_matrices
 
 
 _DEFAULTS = {
@@ -217,35 +209,6 @@ def _zoh_matrices_expm(w, zeta, h):
     return E[..., :3, :3], E[..., :3, 3]
 
 
-def _zoh_matrices(w, zeta, h):
-    """Exact ZOH transition of [s, q, q'] (s = int q over the step) for an
-    under-damped mode (zeta < 1), stacks of w, zeta, step h, in closed form:
-    with sigma = zeta w, w_d = w sqrt(1 - zeta^2), e = exp(-sigma h),
-    q(h) - q_p = e [cos(w_d h) + sigma/w_d sin(w_d h)] (q0 - q_p) + e sin(w_d h)/w_d q0',
-    q_p = u / w^2, and int q dt follows from the ODE itself:
-    w^2 int (q - q_p) dt = -(q'(h) - q0') - 2 sigma (q(h) - q0).
-    Returns Phi (..., 3, 3), Gamma (..., 3)."""
-    w, zeta = np.broadcast_arrays(np.asarray(w, float), np.asarray(zeta, float))
-    sg = zeta * w
-    wd = w * np.sqrt(1.0 - zeta**2)
-    e = np.exp(-sg * h)
-    c, sn = np.cos(wd * h), np.sin(wd * h)
-    w2 = w**2
-    p_qq = e * (c + sg / wd * sn)
-    p_qv = e * sn / wd
-    p_vq = -e * w2 / wd * sn
-    p_vv = e * (c - sg / wd * sn)
-    Phi = np.zeros(w.shape + (3, 3))
-    Phi[..., 0, 0] = 1.0
-    Phi[..., 0, 1] = -(p_vq + 2.0 * sg * (p_qq - 1.0)) / w2
-    Phi[..., 0, 2] = -((p_vv - 1.0) + 2.0 * sg * p_qv) / w2
-    Phi[..., 1, 1], Phi[..., 1, 2], Phi[..., 2, 1], Phi[..., 2, 2] = p_qq, p_qv, p_vq, p_vv
-    g_q = (1.0 - p_qq) / w2
-    g_v = -p_vq / w2
-    Gam = np.stack([(h - g_v - 2.0 * sg * g_q) / w2, g_q, g_v], axis=-1)
-    return Phi, Gam
-
-
 def simulate_modes(cfg: LeverArmConfig, t_end_s, dt_s: float, load_n_at, rng=None,
                    q0=None, qdot0=None) -> ModalResponse:
     """Integrate the three modal equations (eq. 3/6) over the uniform
@@ -306,13 +269,6 @@ def simulate_modes(cfg: LeverArmConfig, t_end_s, dt_s: float, load_n_at, rng=Non
                          cfg.r0_b_m + q @ Y.T, qd @ Y.T, qdd @ Y.T)
 
 
-def lever_arm_specific_force(r_b_m, rdot_b_mps, rddot_b_mps2, omega_ib_b_radps, omegadot_ib_b_radps2):
-    """Eq. 1: r'' + 2 w x r' + w' x r + w x (w x r) (all four terms), (..., 3)."""
-    w = omega_ib_b_radps
-    return (rddot_b_mps2 + 2.0 * np.cross(w, rdot_b_mps) + np.cross(omegadot_ib_b_radps2, r_b_m)
-            + np.cross(w, np.cross(w, r_b_m)))
-
-
 def lever_arm_dvel(cfg: LeverArmConfig, resp: ModalResponse, dt_s: float,
                    omega_start_radps, omega_mid_radps, omega_end_radps) -> np.ndarray:
     """Integral of eq. 1 over each interval, (N, 3) [m/s], from w_ib at the
@@ -323,18 +279,10 @@ def lever_arm_dvel(cfg: LeverArmConfig, resp: ModalResponse, dt_s: float,
       + dw x r0 + (dw / dt) x (Y int q)         (Euler; int w' = dw exactly, so a
                                                  jump of w' inside the interval is kept)
       + Simpson(w x (w x r0)) + w_mid x (w_mid x Y int q)   (centripetal)."""
-    Y = cfg.Y
     q_prev = np.vstack([resp.q0[None, :], resp.q[:-1]])
     qd_prev = np.vstack([resp.qdot0[None, :], resp.qdot[:-1]])
-    d_rdot = (resp.qdot - qd_prev) @ Y.T
-    d_r = (resp.q - q_prev) @ Y.T
-    r_el = resp.q_int @ Y.T
-    w0, wm, w1 = omega_start_radps, omega_mid_radps, omega_end_radps
-    dw = w1 - w0
-    r0 = cfg.r0_b_m
-    cent0 = sum(c * np.cross(w, np.cross(w, r0)) for c, w in ((1.0, w0), (4.0, wm), (1.0, w1))) * dt_s / 6.0
-    return (d_rdot + 2.0 * np.cross(wm, d_r) + np.cross(dw, r0) + np.cross(dw / dt_s, r_el)
-            + cent0 + np.cross(wm, np.cross(wm, r_el)))
+    return _lever_arm_dvel(cfg.Y, cfg.r0_b_m, q_prev, qd_prev, resp.q, resp.qdot, resp.q_int,
+                           omega_start_radps, omega_mid_radps, omega_end_radps, dt_s)
 
 
 def normal_force_from_trajectory(traj, mass_kg: float):

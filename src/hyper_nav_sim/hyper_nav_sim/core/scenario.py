@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
+from hyper_nav_filter.core.gnss.raw_to_pseudoranges import check_gnss_mode, tight_gnss_input
 
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
@@ -62,6 +63,10 @@ SCHEMA = {
     "filter.initial_error.pos_enu_m": (vec(3), True, None),
     "filter.initial_error.vel_enu_mps": (vec(3), True, None),
     "filter.initial_error.att_enu_arcmin": (vec(3), True, None),
+    # GNSS coupling of the fusion node: "loose" (gnss/fix + gnss/vel) or "tight"
+    # (pseudoranges from gnss/raw + gnss/ephemeris; needs gnss.raw and the clk block)
+    "filter.gnss_mode": (STR, False, "loose"),
+    "filter.gnss_use_pseudorange_rates": (BOOL, False, False),
     "report.skip_s": (NUM, False, 30.0),
     "report.max_pos_rms_m": (NUM, False, None),
     "report.max_vel_rms_mps": (NUM, False, None),
@@ -124,6 +129,8 @@ def _check_type(field: str, typ, value):
         raise ScenarioError(f"{field}: expected an integer, got {value!r}")
     if typ == STR and not isinstance(value, str):
         raise ScenarioError(f"{field}: expected a string, got {value!r}")
+    if typ == BOOL and not isinstance(value, bool):
+        raise ScenarioError(f"{field}: expected true or false, got {value!r}")
     if isinstance(typ, tuple):
         if not (isinstance(value, list) and len(value) == typ[1] and all(is_num(x) for x in value)):
             raise ScenarioError(f"{field}: expected a list of {typ[1]} numbers, got {value!r}")
@@ -194,6 +201,22 @@ class Scenario:
     def filter_config(self) -> FilterConfig:
         return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
 
+    def tight_gnss_parameters(self) -> dict:
+        """The fusion node's ``gnss.*`` parameters for ``filter.gnss_mode: tight``
+        (see ``hyper_nav_filter.core.gnss.raw_to_pseudoranges.TIGHT_GNSS_PARAMETERS``):
+        the receiver removes the broadcast ionosphere/troposphere models of the
+        ``gnss.raw`` block, with the Klobuchar coefficients its satellites
+        broadcast (the GnssEphemeris message does not carry them)."""
+        from .gnss.receiver import GnssReceiverConfig
+        rx = GnssReceiverConfig.from_dict(self.data.get("gnss", {}).get("raw"))
+        return {"gnss.ionosphere": rx.ionosphere, "gnss.klobuchar_alpha": [float(x) for x in rx.klobuchar_alpha],
+                "gnss.klobuchar_beta": [float(x) for x in rx.klobuchar_beta], "gnss.troposphere": rx.troposphere,
+                "gnss.use_pseudorange_rates": bool(self["filter.gnss_use_pseudorange_rates"])}
+
+    def tight_gnss_input(self):
+        """The tightly coupled GNSS input the fusion node builds from these parameters."""
+        return tight_gnss_input(self.tight_gnss_parameters())
+
     def rng(self, stream: str) -> np.random.Generator:
         """Independent, reproducible random stream per sensor."""
         return np.random.default_rng([self["seed"], sum(stream.encode())])
@@ -235,9 +258,16 @@ def validate(data, source: str = "<dict>") -> dict:
         if m["duration_s"] <= 0:
             raise ScenarioError(f"{source}: {where}.duration_s: must be > 0")
     try:
-        FilterConfig.from_dict((data.get("filter") or {}).get("config", {}) or {})
+        cfg = FilterConfig.from_dict((data.get("filter") or {}).get("config", {}) or {})
     except (ConfigError, TypeError) as exc:
         raise ScenarioError(f"{source}: filter.config: {exc}") from None
+    mode = data["filter"]["gnss_mode"]
+    try:
+        check_gnss_mode(mode, cfg)
+    except ConfigError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+    if mode == "tight" and "raw" not in (data.get("gnss") or {}):
+        raise ScenarioError(f"{source}: filter.gnss_mode 'tight' needs a gnss.raw receiver block (pseudoranges)")
     _validate_models(data, source)
     return data
 

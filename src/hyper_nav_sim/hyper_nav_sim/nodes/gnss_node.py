@@ -20,7 +20,7 @@ import numpy as np
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from hyper_nav_filter.ros_util import run_node
+from hyper_nav_filter.ros_util import latched_qos, run_node
 
 from ..core import simulate
 from .sensor_base import ClockDrivenSensor
@@ -36,6 +36,10 @@ class GnssNode(ClockDrivenSensor):
         self.pub_fix = self.create_publisher(NavSatFix, "gnss/fix", self.qos)
         self.pub_vel = self.create_publisher(TwistWithCovarianceStamped, "gnss/vel", self.qos)
         self.raw_mode = "raw" in sc.data["gnss"]
+        # subscriptions gnss/raw must see before data flows (run_graph: the recorder,
+        # plus the fusion node when it runs tightly coupled); -1: min(1, min_subscribers)
+        raw_need = int(self.declare_parameter("raw_min_subscribers", -1).value)
+        self.raw_min_subscribers = min(1, self.min_subscribers) if raw_need < 0 else raw_need
         if self.raw_mode:
             self._setup_raw(sc)
         else:
@@ -48,12 +52,9 @@ class GnssNode(ClockDrivenSensor):
 
     def _setup_raw(self, sc):
         from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         self.epochs = simulate.gnss_raw_stream(sc, sc.trajectory())
         self.pub_raw = self.create_publisher(GnssMeasurements, "gnss/raw", self.qos)
-        latched = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched)
+        self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched_qos(200))
         self._eph_cls, self._raw_cls = GnssEphemeris, GnssMeasurements
         self._published_eph = set()
         with_fix = [i for i, e in enumerate(self.epochs) if e.fix is not None]
@@ -66,8 +67,9 @@ class GnssNode(ClockDrivenSensor):
 
     def publishers_to_match(self):
         pubs = [self.pub_fix, self.pub_vel]
-        # the fusion node takes fix/vel; raw measurements go to the recorder (or a user's node)
-        return pubs + [(self.pub_raw, 1)] if self.raw_mode else pubs
+        # loosely coupled fusion takes fix/vel, tightly coupled fusion gnss/raw (+ gnss/ephemeris,
+        # transient local: no need to wait for it); the recorder takes all
+        return pubs + [(self.pub_raw, self.raw_min_subscribers)] if self.raw_mode else pubs
 
     def _make_raw(self, i: int):
         e = self.epochs[i]

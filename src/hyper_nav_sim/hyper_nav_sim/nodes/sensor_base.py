@@ -36,8 +36,8 @@ class ClockDrivenSensor(Node):
 
     def publishers_to_match(self):
         """Publishers that must see ``min_subscribers`` matched subscriptions
-        before data flows; an entry (publisher, n) asks for min(n, min_subscribers)
-        (for topics only some of the expected subscribers take)."""
+        before data flows; an entry (publisher, n) asks for n instead (for
+        topics that other subscribers take, e.g. gnss/raw)."""
         raise NotImplementedError
 
     def schedule(self, epochs_s, topic_publisher, make_msg):
@@ -49,7 +49,7 @@ class ClockDrivenSensor(Node):
     def _start_when_ready(self):
         for entry in self.publishers_to_match():
             pub, need = entry if isinstance(entry, tuple) else (entry, self.min_subscribers)
-            if pub.get_subscription_count() < min(need, self.min_subscribers):
+            if pub.get_subscription_count() < need:
                 return
         self._wait_timer.cancel()
         self._clock_sub = self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))

@@ -90,10 +90,10 @@ def test_vertical_launch_passes_pitch_90_without_nan(launch):
     assert np.all(np.rad2deg(tr.pitch_rad[t < 4.0]) > 89.9)
     np.testing.assert_allclose(np.einsum("kji,kjl->kil", tr.C_b_n, tr.C_b_n), np.broadcast_to(np.eye(3), tr.C_b_n.shape),
                                atol=1e-12)
-    # boost -> short coast (apogee ~54 km) -> pull-up -> weaving glide at ~35 km
+    # boost -> short coast (apogee ~43 km) -> pull-up -> weaving glide at 33-43 km
     h = tr.alt_m
     assert launch.flight([75.0])["V"][0] > 4000.0
-    assert 45e3 < h.max() < 60e3
+    assert 40e3 < h.max() < 50e3
     assert np.all((h[(t > 300) & (t < 460)] > 30e3) & (h[(t > 300) & (t < 460)] < 40e3))
     heading = np.unwrap(tr.heading_rad[(t > 200) & (t < 460)])
     assert np.ptp(heading) > np.deg2rad(5.0)                   # the S-turn weave

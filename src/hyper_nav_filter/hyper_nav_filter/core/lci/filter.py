@@ -27,8 +27,8 @@ Interface toward the engine and outputs (same as ErrorStateKF):
     NavState and its ``P`` the ENU covariance (what ``Solution`` and the
     outputs read), ``lci``/``P_lci`` carry the filter state for ``restore``;
   * ``last_Phi``, ``P_prior``, ``epoch_dx`` are in the LCI error frame; the
-    RTS smoother (core.smoother) pairs them with ``snap.P`` (ENU) and is
-    therefore not supported with this filter.
+    RTS smoother (core.smoother.rts_smooth, given this filter) runs in that
+    frame with the snapshots' ``P_lci``.
 The launch frame: launch point = the initial geodetic position, launch epoch
 t0 = initial.t_s, azimuth ``cfg.launch_azimuth_deg``, unless a ``LaunchFrame``
 is passed as ``frame``.

@@ -52,7 +52,7 @@ import numpy as np
 
 from ..attitude import cross3 as _cross3
 from ..attitude import orthonormalize, rotvec_to_C
-from ..nav_state import ImuSample
+from ..nav_state import ImuSample, remove_imu_errors
 
 
 @dataclass
@@ -98,15 +98,9 @@ class BodyIncrements:
 
 def compensate(imu: ImuSample, state: LciState) -> tuple[np.ndarray, np.ndarray]:
     """Remove the estimated biases, then the scale factors, from the increments
-    (omega = (omega_meas - b) / (1 + s), as ``NavState.compensate``)."""
-    dth = imu.dtheta_b_rad - state.gyro_bias_b_radps * imu.dt_s
-    dv = imu.dvel_b_mps - state.accel_bias_b_mps2 * imu.dt_s
-    sg, sa = state.extra.get("sg"), state.extra.get("sa")
-    if sg is not None:
-        dth = dth / (1.0 + sg)
-    if sa is not None:
-        dv = dv / (1.0 + sa)
-    return dth, dv
+    (``nav_state.remove_imu_errors``; the LCI state has no Markov drift)."""
+    return remove_imu_errors(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, state.gyro_bias_b_radps,
+                             state.accel_bias_b_mps2, state.extra)
 
 
 def _cross_rows(u, v):

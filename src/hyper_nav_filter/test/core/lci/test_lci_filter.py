@@ -2,13 +2,13 @@
 FusionEngine: seed 001 boost-glide accuracy, vertical flight, and agreement
 with the ENU filter on the default scenario.
 
-The seed 001 IMU (500 Hz) is fed at 100 Hz: five consecutive increments are
-summed (exactly the integral over the 10 ms interval; only the coning /
-sculling resolution changes), which keeps a 600 s run ~1 min.
+The seed 001 IMU (500 Hz) is fed at 100 Hz (``offline_fly.fly(decimate=5)``:
+five consecutive increments summed, exactly the integral over the 10 ms
+interval; only the coning / sculling resolution changes), which keeps a 560 s
+run ~35 s.
 """
 import dataclasses
 import functools
-import time
 
 import numpy as np
 import pytest
@@ -19,62 +19,16 @@ from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.fusion import MODE_LOOSELY_COUPLED, FusionEngine, make_filter
 from hyper_nav_filter.core.eskf import ErrorStateKF
 from hyper_nav_filter.core.lci.filter import LciErrorStateKF, UnsupportedMeasurement
-from hyper_nav_filter.core.measurements import BaroHeight, GnssPosition, GnssVelocity, ModelContext
+from hyper_nav_filter.core.measurements import BaroHeight, ModelContext
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core import simulate
+from hyper_nav_sim.offline_fly import fly, gnss_measurements as _measurements, per_axis_errors
 from hyper_nav_sim.core.imu_model import ImuErrors
 from hyper_nav_sim.core.scenario import load_scenario
 
 SEED001_AZIMUTH_DEG = 90.0       # flight.start.psi_deg of seed001.yaml
 CONVERGED_S = 100.0              # accuracy window starts here
 BIAS_FROM_S = 200.0              # bias-estimate window starts here
-
-
-def _measurements(sc, traj):
-    g = simulate.gnss_stream(sc, traj)
-    meas = []
-    for i in range(len(g.t_s)):
-        meas.append(GnssVelocity(g.t_s[i], g.vel_enu_mps[i], np.diag(g.vel_sigma_enu_mps**2)))
-        meas.append(GnssPosition(g.t_s[i], g.lat_rad[i], g.lon_rad[i], g.alt_m[i], np.diag(g.pos_sigma_enu_m**2)))
-    meas.sort(key=lambda m: (m.t_s, m.kind))
-    return meas
-
-
-def fly(sc, cfg, decimate=1, duration_s=None):
-    """Run the engine over the scenario; returns (solutions, engine, traj, seconds)."""
-    traj = sc.trajectory()
-    imu = simulate.imu_stream(sc, traj)
-    n = len(imu.t_s) if duration_s is None else int(round(duration_s / imu.dt_s))
-    n -= n % decimate
-    t = imu.t_s[decimate - 1:n:decimate]
-    dth = imu.dtheta_b_rad[:n].reshape(-1, decimate, 3).sum(axis=1)
-    dv = imu.dvel_b_mps[:n].reshape(-1, decimate, 3).sum(axis=1)
-    meas = _measurements(sc, traj)
-    eng = FusionEngine(cfg, sc.filter_initial_state())
-    sols, j = [], 0
-    t0 = time.perf_counter()
-    for k in range(len(t)):
-        eng.add_imu(t[k], dth[k], dv[k])
-        while j < len(meas) and meas[j].t_s <= t[k] + 1e-9:
-            eng.add_measurement(meas[j])
-            j += 1
-        if k % 10 == 9:
-            sols += eng.release()
-    sols += eng.release(final=True)
-    return sols, eng, traj, time.perf_counter() - t0
-
-
-def per_axis_errors(sols, traj, t_from):
-    """ENU per-axis errors of the released solutions from t_from on:
-    dict name -> (N, 3) array (att deg, vel m/s, pos m) and the times."""
-    sols = [s for s in sols if s.t_s >= t_from - 1e-9]
-    t = np.array([s.t_s for s in sols])
-    tr = traj.truth(t)
-    pos = np.array([earth.position_error_enu_m(s.state.lat_rad, s.state.lon_rad, s.state.alt_m,
-                                               tr.lat_rad[i], tr.lon_rad[i], tr.alt_m[i]) for i, s in enumerate(sols)])
-    vel = np.array([s.state.vel_enu_mps for s in sols]) - tr.vel_enu_mps
-    att = np.rad2deg([attitude_error_n_rad(s.state.C_b_n, tr.C_b_n[i]) for i, s in enumerate(sols)])
-    return t, {"att": att, "vel": vel, "pos": pos}
 
 
 def summarize(err):
@@ -146,11 +100,13 @@ def _final_rel(sols, truth):
 def test_seed001_lci_accuracy_and_biases():
     """Seed 001 (500 Hz IMU with 100 ppm scale factors, BDS 10 m / 0.3 m/s at
     1 Hz), LCI filter with scale-factor states, per ENU axis.
-    Measured: attitude RMS t >= 100 s (0.053, 0.009, 0.011) deg, the East
-    (roll-axis) term from the zero-g coast 100-185 s; t >= 200 s (0.019,
-    0.004, 0.012) deg; velocity <= 0.08 m/s, position <= 2 m RMS;
-    accelerometer biases within 10 % at every t >= 200 s (max 5/10/5 %),
-    gyro biases within 3 % at the end. Asserted: those with margins."""
+    Measured: attitude RMS t >= 100 s (0.043, 0.009, 0.011) deg, the East
+    (roll-axis) term from the low-g coast 100-160 s; t >= 200 s (0.010,
+    0.003, 0.012) deg; velocity <= 0.07 m/s, position <= 1.9 m RMS;
+    accelerometer biases within 10 % at every t >= 200 s (max 8.5/5.4/5.1 %),
+    all biases within 4 % at the end. Asserted: the issue's limits, the
+    accelerometer biases within 10 % from 200 s, the gyro bias errors inside
+    3.5 sigma of the filter's own covariance, final biases within 10 %."""
     sols, eng, traj, secs, truth = seed001_run()
     out = _report("seed001 LCI, 21 states", sols, eng, traj, secs, truth)
     rg, ra, zg = _bias_errors(sols, truth)
@@ -160,7 +116,7 @@ def test_seed001_lci_accuracy_and_biases():
     s, s200 = out[CONVERGED_S], out[BIAS_FROM_S]
     assert np.all(s["vel"][0] < 0.2), s["vel"]
     assert np.all(s["pos"][0] < 10.0), s["pos"]
-    assert np.all(s["att"][0] < 0.07), s["att"]
+    assert np.all(s["att"][0] < 0.05), s["att"]
     assert np.all(s200["att"][0] < 0.05), s200["att"]
     assert np.all(ra < 0.1), ra
     assert np.all(zg < 3.5), zg                  # the gyro bias error stays inside its own 3.5 sigma
@@ -172,22 +128,22 @@ def test_seed001_lci_accuracy_and_biases():
 def test_seed001_paper_15_state_filter():
     """The paper's 15-state filter on the same data: the scale factors are
     unmodelled, so under the 7 g boost 100 ppm looks like 0.7 mg of x
-    accelerometer bias. Measured: attitude RMS t >= 200 s within 0.05 deg,
-    velocity/position inside the paper's limits, accelerometer x bias off by
-    up to ~22 % after 200 s and ~10 % at the end. Asserted: the paper's
-    accuracy limits (att t >= 200 s < 0.06 deg), final biases within 20 %."""
+    accelerometer bias. Measured: attitude RMS t >= 100 s (0.043, 0.023,
+    0.017) deg, velocity/position inside the paper's limits, accelerometer x
+    bias off by up to 25 % after 200 s and 7 % at the end. Asserted: the
+    paper's accuracy limits (att t >= 100 s < 0.06 deg), final biases within 20 %."""
     sols, eng, traj, secs, truth = seed001_run(PAPER_15)
     out = _report("seed001 LCI, paper's 15 states", sols, eng, traj, secs, truth)
     _bias_errors(sols, truth)
     s = out[CONVERGED_S]
     assert np.all(s["vel"][0] < 0.2) and np.all(s["pos"][0] < 10.0), s
-    assert np.all(out[BIAS_FROM_S]["att"][0] < 0.06), out[BIAS_FROM_S]["att"]
+    assert np.all(out[CONVERGED_S]["att"][0] < 0.06), out[CONVERGED_S]["att"]
     fg, fa = _final_rel(sols, truth)
     assert np.all(fg < 0.2) and np.all(fa < 0.2), (fg, fa)
 
 
-@pytest.mark.xfail(strict=True, reason="gyro bias not within 10 % at every t >= 200 s: at 200 s, right after "
-                   "the zero-g coast, the filter's own sigma of the roll-axis gyro bias is ~75 % of its value")
+@pytest.mark.xfail(strict=True, reason="gyro bias not within 10 % at every t >= 200 s: max 16/11/12 % (x at "
+                   "200 s, right after the low-g coast, where the filter's own sigma is 24 % of the bias)")
 def test_seed001_issue_requirements_strict():
     """The issue's figures as literally stated: attitude < 0.05 deg RMS per axis
     from t >= 100 s and every bias estimate within 10 % for all t >= 200 s."""

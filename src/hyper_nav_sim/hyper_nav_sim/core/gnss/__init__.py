@@ -3,15 +3,23 @@ constellations, propagation delays, observables, PVT and a tracking-lock model.
 
 Times are continuous seconds (GPST unless a function says "system time"; BDT =
 GPST - 14 s, see ephemeris). Positions/velocities in the Earth-fixed frame (ECEF).
+
+The receiver-side models (broadcast ephemeris, light time and Sagnac,
+elevation/azimuth, Klobuchar and Hopfield) live in
+:mod:`hyper_nav_filter.core.gnss`, which the filter's tightly coupled update
+uses too; they are re-exported here.
 """
-from .constellation import (Visibility, elevation_azimuth, is_geosynchronous, synthetic_constellation,
-                            visible_satellites)
-from .ephemeris import (BDS_GEO_PRNS, C_MPS, BroadcastEphemeris, calendar_to_system_s, constants, gpst_s,
-                        read_rinex2_nav, read_rinex3_nav, satellite_position_ecef, select_ephemeris,
-                        shift_ephemeris, system_time_s)
+from hyper_nav_filter.core.gnss.ephemeris import (BDS_GEO_PRNS, C_MPS, BroadcastEphemeris, calendar_to_system_s,
+                                                  constants, gpst_s, read_rinex2_nav, read_rinex3_nav,
+                                                  satellite_position_ecef, select_ephemeris, shift_ephemeris,
+                                                  system_time_s)
+from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
+from hyper_nav_filter.core.gnss.propagation import (CARRIER_HZ, F_B1I_HZ, F_L1_HZ, hopfield_delay_m,
+                                                    klobuchar_delay_m)
+
+from .constellation import Visibility, is_geosynchronous, synthetic_constellation, visible_satellites
 from .lock import LockConfig, LockModel, vehicle_doppler_hz
-from .observables import CARRIER_HZ, ClockModel, Observables, compute_observables, pr_sigma_m
-from .propagation import F_B1I_HZ, F_L1_HZ, hopfield_delay_m, klobuchar_delay_m
+from .observables import ClockModel, Observables, compute_observables, pr_sigma_m
 from .pvt import PvtSolution, solve_pvt
 
 __all__ = [

@@ -26,10 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
-
-from .ephemeris import (BroadcastEphemeris, constants, satellite_position_ecef, shift_ephemeris,
-                        system_time_s)
+from hyper_nav_filter.core.gnss.ephemeris import (BroadcastEphemeris, constants, satellite_position_ecef,
+                                                  shift_ephemeris, system_time_s)
+from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
 
 
 def is_geosynchronous(eph: BroadcastEphemeris) -> bool:
@@ -67,16 +66,6 @@ class Visibility:
     r_sat_e_m: np.ndarray
     el_rad: np.ndarray
     az_rad: np.ndarray
-
-
-def elevation_azimuth(r_rx_e_m, r_sat_e_m):
-    """Elevation and azimuth [rad] of ECEF points r_sat (N,3) seen from r_rx (3,),
-    in the receiver's geodetic ENU frame."""
-    lat, lon, _ = earth.ecef_to_geodetic(np.asarray(r_rx_e_m, float))
-    d_enu = (np.atleast_2d(r_sat_e_m) - r_rx_e_m) @ earth.C_n_e(lat, lon)
-    el = np.arctan2(d_enu[:, 2], np.hypot(d_enu[:, 0], d_enu[:, 1]))
-    az = np.mod(np.arctan2(d_enu[:, 0], d_enu[:, 1]), 2 * np.pi)
-    return el, az
 
 
 def visible_satellites(ephs, r_rx_e_m, t_s: float, mask_deg: float = 5.0) -> Visibility:

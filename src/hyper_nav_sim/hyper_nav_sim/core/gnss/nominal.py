@@ -92,8 +92,8 @@ import datetime as _dt
 
 import numpy as np
 
-from .ephemeris import (BDS_GEO_PRNS, SECONDS_PER_WEEK, BroadcastEphemeris, calendar_to_system_s, constants,
-                        gpst_s, system_time_s)
+from hyper_nav_filter.core.gnss.ephemeris import (BDS_GEO_PRNS, SECONDS_PER_WEEK, BroadcastEphemeris,
+                                                  calendar_to_system_s, constants, gpst_s, system_time_s)
 
 J2 = 1.08263e-3
 RE_M = 6378137.0

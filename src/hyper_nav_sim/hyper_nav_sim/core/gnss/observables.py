@@ -29,21 +29,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from hyper_nav_filter.core import earth
-
-from .constellation import elevation_azimuth
-from .ephemeris import C_MPS, constants, satellite_position_ecef, system_time_s
-from .propagation import F_B1I_HZ, F_L1_HZ, hopfield_delay_m, klobuchar_delay_m
-
-CARRIER_HZ = {"G": F_L1_HZ, "C": F_B1I_HZ}
-
-
-def _rot3(theta):
-    c, s = np.cos(theta), np.sin(theta)
-    z = np.zeros_like(theta)
-    o = np.ones_like(theta)
-    R = np.stack([np.stack([c, s, z], -1), np.stack([-s, c, z], -1), np.stack([z, z, o], -1)], -2)
-    dR = np.stack([np.stack([-s, c, z], -1), np.stack([-c, -s, z], -1), np.stack([z, z, z], -1)], -2)
-    return R, dR
+# receiver-side models live in the filter package (the filter needs them, and
+# it must not import the simulator); re-exported here for existing users
+from hyper_nav_filter.core.gnss.ephemeris import C_MPS
+from hyper_nav_filter.core.gnss.geometry import elevation_azimuth, satellite_states_at_reception
+from hyper_nav_filter.core.gnss.propagation import CARRIER_HZ, hopfield_delay_m, klobuchar_delay_m
 
 
 def pr_sigma_m(el_rad, a_m=0.11, b_m=0.13, el0_deg=4.0):
@@ -103,27 +93,6 @@ class Observables:
     tau_s: np.ndarray
     pr_sigma_m: np.ndarray
     rate_sigma_mps: np.ndarray
-
-
-def satellite_states_at_reception(ephs, t_gpst_s, r_rx_e_m, iters=4):
-    """Light-time iteration. Returns r_sat (N,3) and v_sat (N,3) at t_tx in
-    ECEF(t_tx), clock bias [s], drift [s/s], tau [s] (N,), and the Sagnac
-    rotation R3(we tau) (N,3,3) with its derivative (N,3,3)."""
-    n = len(ephs)
-    r = np.empty((n, 3))
-    v = np.empty((n, 3))
-    cb, cd, tau = np.empty(n), np.empty(n), np.full(n, 0.075)
-    we = np.empty(n)
-    for k, e in enumerate(ephs):
-        we[k] = constants(e.system)[1]
-        t_sys = system_time_s(e.system, t_gpst_s)
-        for _ in range(iters):
-            r[k], v[k], cb[k], cd[k] = satellite_position_ecef(e, t_sys, -tau[k])
-            R, _ = _rot3(np.array(we[k] * tau[k]))
-            tau[k] = np.linalg.norm(R @ r[k] - r_rx_e_m) / C_MPS
-        r[k], v[k], cb[k], cd[k] = satellite_position_ecef(e, t_sys, -tau[k])
-    R, dR = _rot3(we * tau)
-    return r, v, cb, cd, tau, R, dR * we[:, None, None]
 
 
 def compute_observables(ephs, t_gpst_s, r_rx_e_m, v_rx_e_mps, rx_clk_bias_m=0.0, rx_clk_drift_mps=0.0,

@@ -18,9 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hyper_nav_filter.core import earth
-
-from .ephemeris import C_MPS, constants, satellite_position_ecef, system_time_s
-from .observables import _rot3
+from hyper_nav_filter.core.gnss.ephemeris import C_MPS, constants, satellite_position_ecef, system_time_s
+from hyper_nav_filter.core.gnss.geometry import rot3
 
 
 @dataclass
@@ -50,7 +49,7 @@ def _sat_geometry(ephs, t_tag_s, pr_m, r_rx, clk_bias_m):
         r_s, v_s, dts[k], dtd[k] = satellite_position_ecef(e, t_sys, -pr_m[k] / C_MPS - (cb - e.tgd))
         # true reception time = t_tag - b/c; geometric light time:
         tau = (pr_m[k] - clk_bias_m) / C_MPS + cb - e.tgd
-        R, dR = _rot3(np.array(we * tau))
+        R, dR = rot3(np.array(we * tau))
         rr[k], vr[k], dR_r[k] = R @ r_s, R @ v_s, we * (dR @ r_s)
     return rr, vr, dts, dtd, dR_r
 

@@ -32,19 +32,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hyper_nav_filter.core import earth
+from hyper_nav_filter.core.gnss.ephemeris import C_MPS, satellite_position_ecef, system_time_s
+from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
+from hyper_nav_filter.core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
+from hyper_nav_filter.core.gnss.raw_to_pseudoranges import RawGnssEpoch
 
-from .constellation import elevation_azimuth
-from .ephemeris import C_MPS, satellite_position_ecef, system_time_s
 from .lock import LockConfig, LockModel
 from .nominal import gpst_from_date, nominal_constellation
 from .observables import CARRIER_HZ, ClockModel, compute_observables, pr_sigma_m
 from .pvt import solve_pvt
 
-# Klobuchar coefficients used when no broadcast file is available: the default
-# set of RTKLIB (rtkcmn.c ``ion_default``, GPS broadcast of 2004/1/1), a
-# moderate-activity ionosphere (~3-8 m vertical L1 delay at midday mid-latitude).
-KLOBUCHAR_ALPHA_DEFAULT = (0.1118e-07, -0.7451e-08, -0.5961e-07, 0.1192e-06)
-KLOBUCHAR_BETA_DEFAULT = (0.1167e+06, -0.2294e+06, -0.1311e+06, 0.1049e+07)
 EPHEMERIS_BLOCK_S = 7200.0
 
 _TOP_FIELDS = {"systems", "start_gpst_s", "rate_hz", "elevation_mask_deg", "pseudorange_sigma_m",
@@ -246,6 +243,13 @@ class GnssEpoch:
     antenna_r_e_m: np.ndarray         # truth
     antenna_v_e_mps: np.ndarray
     fix: GnssFix | None
+
+    def raw(self) -> RawGnssEpoch:
+        """What the receiver outputs at this epoch (the content of ``gnss/raw``)
+        in the filter's input type; the time tag is t_tag_s."""
+        return RawGnssEpoch(self.t_s, self.t_tag_s, tuple(self.system), np.asarray(self.prn, int),
+                            self.pseudorange_m, self.pr_sigma_m, self.pseudorange_rate_mps, self.rate_sigma_mps,
+                            np.asarray(self.locked, bool))
 
 
 def _sample_clock(cfg: GnssReceiverConfig, t, rng):
