@@ -35,7 +35,7 @@ def test_seed004_raw_gnss_over_dds(tmp_path):
     assert all(26000e3 ** 0.5 < m.sqrt_a_sqrtm < 27000e3 ** 0.5 for m in eph)
     run = load_run(bag)
     for topic, d in delivery_check(run).items():
-        assert d["published"] == d["recorded"], topic
+        assert d["published"] == d["recorded"], (topic, d)
 
 
 def test_seed003_barometer_and_seed002_radar_over_dds(tmp_path):
@@ -66,7 +66,7 @@ def test_fusion_node_runs_the_paper_filter_configurations(tmp_path, scenario, du
     assert "fusion" in nodes
     run = load_run(bag)
     for topic, d in delivery_check(run).items():
-        assert d["published"] == d["recorded"], topic
+        assert d["published"] == d["recorded"], (topic, d)
     s = summarize(errors(states_from_msgs(run["nav"]), states_from_msgs(run["truth"])), 3.0)
     print(f"\n[{scenario}] live fusion after 3 s: position RMS 3D {s['pos_enu_m']['rms_3d']:.2f} m, "
           f"velocity {s['vel_enu_mps']['rms_3d']:.3f} m/s, attitude {s['att_enu_deg']['rms_3d']:.4f} deg")

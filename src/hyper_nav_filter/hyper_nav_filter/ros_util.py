@@ -2,10 +2,15 @@
 from __future__ import annotations
 
 import signal
+import threading
+import time
 
 import rclpy
+import rclpy.executors
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
 
 
 def publisher_qos(depth: int) -> QoSProfile:
@@ -47,19 +52,33 @@ def diagnostic_array(node, name: str, level_ok: bool, message: str, values: dict
     return arr
 
 
-def run_node(node_factory, args=None) -> None:
-    """Jazzy-style main: init, spin until shutdown or SIGINT/SIGTERM, clean up."""
-    rclpy.init(args=args)
+def run_node(node_factory, args=None, linger_s: float = 0.3) -> None:
+    """Jazzy-style main: init, spin until shutdown or SIGINT/SIGTERM, clean up.
+
+    SIGINT/SIGTERM only set a flag (rclpy's own handlers would invalidate the
+    context at once): the loop ends, ``node.on_shutdown()`` (if any) still
+    publishes with a valid context (e.g. the fusion node's final
+    /diagnostics), and the node spins ``linger_s`` more so reliable DDS can
+    deliver it before the process exits."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
     node = None
+    executor = SingleThreadedExecutor()
     try:
         node = node_factory()
-        signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
-        rclpy.spin(node)
+        executor.add_node(node)
+        while not stop.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+        if rclpy.ok() and hasattr(node, "on_shutdown"):
+            node.on_shutdown()
+            t_end = time.monotonic() + linger_s
+            while time.monotonic() < t_end:
+                executor.spin_once(timeout_sec=0.05)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
         pass
     finally:
         if node is not None:
-            if hasattr(node, "on_shutdown"):
-                node.on_shutdown()
             node.destroy_node()
         rclpy.try_shutdown()

@@ -136,6 +136,11 @@ class FusionNode(Node):
             for t in ("nav/state", "nav/odom", "nav/fix"):
                 self.counts[f"published {t}"] += 1
 
+    def on_shutdown(self):
+        """Final /diagnostics on SIGINT/SIGTERM (ros_util.run_node): its
+        published counts are the node's last word, matched by the recorder."""
+        self._publish_diagnostics()
+
     def _publish_diagnostics(self):
         c = dict(self.engine.counters)
         c.update(self.counts)

@@ -10,15 +10,23 @@ Log time of each message = receive time on the node clock (ns; /clock time with
 use_sim_time:=true). /rosout and /parameter_events are never recorded.
 Publishes the per-topic counts every second on /recorder/counts
 (diagnostic_msgs/DiagnosticArray, status "recorder", key=topic, value=count).
-SIGINT/SIGTERM close the bag cleanly (MCAP summary and metadata.yaml written).
+    drain_quiet_s (0.5), drain_max_s (10.0)   on SIGINT/SIGTERM, keep taking messages
+                                 until none arrived for drain_quiet_s (at most drain_max_s)
+
+SIGINT/SIGTERM stop the recording after that drain, so what the other nodes
+published just before they stopped is still in the bag, and close the bag
+cleanly (MCAP summary and metadata.yaml written).
 """
 
 import importlib
+import signal
+import threading
+import time
 from functools import partial
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -53,6 +61,8 @@ class Recorder(Node):
             raise ValueError("parameter 'output' (bag directory) is required")
         self.wanted = {t if t.startswith("/") else "/" + t for t in string_array_param(self, "topics")}
         period = self.declare_parameter("discovery_period_s", 0.2).value
+        self.declare_parameter("drain_quiet_s", 0.5)
+        self.declare_parameter("drain_max_s", 10.0)
         self.qos = QoSProfile(
             reliability=ReliabilityPolicy.RELIABLE,
             history=HistoryPolicy.KEEP_LAST,
@@ -109,13 +119,31 @@ class Recorder(Node):
 
 
 def main(args=None):
-    # rclpy's handlers turn SIGINT and SIGTERM into a context shutdown, so spin
-    # ends (ExternalShutdownException) and the finally block closes the bag.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.ALL)
+    # Our own SIGINT/SIGTERM handling: rclpy's would shut the context down at
+    # once (losing the messages still in flight, and racing the executor's
+    # wait set: "context is not valid" on exit). The signal only sets a flag;
+    # the loop then drains and closes the bag.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
     node = None
     try:
         node = Recorder()
-        rclpy.spin(node)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.1)
+        quiet_s = node.get_parameter("drain_quiet_s").value
+        deadline = time.monotonic() + node.get_parameter("drain_max_s").value
+        last, quiet_since = -1, time.monotonic()
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+            total = sum(node.counts.values())
+            if total != last:
+                last, quiet_since = total, time.monotonic()
+            elif time.monotonic() - quiet_since >= quiet_s:
+                break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

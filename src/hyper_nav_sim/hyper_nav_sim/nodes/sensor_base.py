@@ -64,6 +64,10 @@ class ClockDrivenSensor(Node):
         if self._next == len(self._queue) and self._queue:
             self.publish_diagnostics()
 
+    def on_shutdown(self):
+        """Final /diagnostics on SIGINT/SIGTERM (ros_util.run_node)."""
+        self.publish_diagnostics()
+
     def publish_diagnostics(self):
         values = {f"published {k}": v for k, v in self.published.items()}
         values["queued"] = len(self._queue)
