@@ -303,10 +303,41 @@ def _validate_models(data: dict, source: str) -> None:
         raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both")
 
 
-def load_scenario(name_or_path: str) -> Scenario:
-    path = find_scenario(str(name_or_path))
+def _read_yaml(path) -> dict:
     try:
-        raw = yaml.safe_load(path.read_text())
+        return yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:
         raise ScenarioError(f"{path}: not valid YAML: {exc}") from None
+
+
+def _merge(base: dict, over: dict) -> dict:
+    """``over`` on top of ``base``: mappings merge key by key, anything else
+    (numbers, strings, lists) replaces."""
+    out = copy.deepcopy(base)
+    for k, v in over.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else copy.deepcopy(v)
+    return out
+
+
+def _resolve_extends(raw, path, seen=()) -> dict:
+    """A scenario file may start from another one: ``extends: <scenario name>``
+    and only the fields that differ (merged by ``_merge``)."""
+    if not isinstance(raw, dict) or "extends" not in raw:
+        return raw
+    base_name = raw["extends"]
+    if not isinstance(base_name, str):
+        raise ScenarioError(f"{path}: extends: expected a scenario name, got {base_name!r}")
+    try:
+        base_path = find_scenario(base_name)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{path}: extends: {exc}") from None
+    if base_path in seen:
+        raise ScenarioError(f"{path}: extends: circular ({' -> '.join(str(p.name) for p in seen)} -> {base_path.name})")
+    base = _resolve_extends(_read_yaml(base_path), base_path, seen + (path,))
+    return _merge(base, {k: v for k, v in raw.items() if k != "extends"})
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    path = find_scenario(str(name_or_path))
+    raw = _resolve_extends(_read_yaml(path), path)
     return Scenario(path, validate(raw, str(path)))

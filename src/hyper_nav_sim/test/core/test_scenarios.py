@@ -108,3 +108,30 @@ def test_error_free_imu_stays_on_the_seed003_truth_for_790_s():
     d = earth.position_error_enu_m(st.lat_rad, st.lon_rad, st.alt_m, tr.lat_rad[0], tr.lon_rad[0], tr.alt_m[0])
     print(f"seed003 error-free drift after 790 s: {np.linalg.norm(d):.3f} m")
     assert np.linalg.norm(d) < 1.0
+
+
+def test_extends_merges_onto_the_base_scenario(tmp_path):
+    """``extends: <name>``: mappings merge key by key, lists and values replace."""
+    from hyper_nav_sim.core.scenario import ScenarioError
+    base = load_scenario("seed004").data
+    tight = load_scenario("seed004_tight").data
+    assert tight["flight"] == base["flight"] and tight["imu"] == base["imu"]
+    assert tight["gnss"]["raw"]["lock"]["outages"] == [] and base["gnss"]["raw"]["lock"]["outages"] == [[30.0, 500.0]]
+    assert tight["gnss"]["raw"]["lock"]["doppler_limit_hz"] == base["gnss"]["raw"]["lock"]["doppler_limit_hz"]
+    assert tight["filter"]["config"]["state_blocks"] == ["att", "vel", "pos", "bg", "ba", "clk"]
+    assert tight["filter"]["config"]["gyro_bias_tau_s"] == base["filter"]["config"]["gyro_bias_tau_s"]
+    f = tmp_path / "child.yaml"
+    f.write_text("extends: default\nname: child\nduration_s: 12.5\n")
+    sc = load_scenario(str(f))
+    assert sc["duration_s"] == 12.5 and sc["imu.rate_hz"] == load_scenario("default")["imu.rate_hz"]
+    f.write_text("extends: no_such_scenario\n")
+    with pytest.raises(ScenarioError, match="extends: scenario 'no_such_scenario' not found"):
+        load_scenario(str(f))
+    f.write_text("extends: [default]\n")
+    with pytest.raises(ScenarioError, match="extends: expected a scenario name"):
+        load_scenario(str(f))
+    g = tmp_path / "loop.yaml"
+    g.write_text(f"extends: {f}\n")
+    f.write_text(f"extends: {g}\n")
+    with pytest.raises(ScenarioError, match="circular"):
+        load_scenario(str(f))
