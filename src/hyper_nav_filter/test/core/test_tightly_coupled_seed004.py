@@ -6,7 +6,14 @@ to the dynamics-driven loss of lock (seed 004 section 2.1).
 
 Scenario ``seed004_tight`` (seed 004 without the scripted outage, filter
 block with ``clk`` and the receiver's clock noise); the loosely coupled run is
-the same scenario with ``gnss_mode: loose`` and the 15-state layout."""
+the same scenario with ``gnss_mode: loose`` and the 15-state layout.
+
+Two simulated worlds (scenario ``world.model``): the realistic one (default
+for flights: true ionosphere, troposphere, orbits and clocks differ from the
+broadcast models the receiver removes) for the comparison with the loosely
+coupled filter, and the perfect-model one (truth = the receiver's models)
+for the filter's consistency, where the pseudorange noise the receiver
+reports is the only error."""
 import pathlib
 import tempfile
 
@@ -22,12 +29,12 @@ from hyper_nav_sim.graph import apply_overrides
 DURATION_S = 200.0
 
 
-def run(mode: str):
+def run(mode: str, world: str = "realistic"):
     """The filter over the simulated IMU and receiver. Tight mode goes through
     the fusion node's input path (``TightGnssInput``: ephemeris store, raw
     epoch -> measurement corrected inside the filter at the nominal antenna
     position and clock of its epoch), fed in the order the node receives them."""
-    over = {"duration_s": DURATION_S}
+    over = {"duration_s": DURATION_S, "world.model": world}
     if mode == "loose":
         over.update({"filter.gnss_mode": "loose", "filter.config.state_blocks": ["att", "vel", "pos", "bg", "ba"]})
     sc = apply_overrides(load_scenario("seed004_tight"), over, pathlib.Path(tempfile.mkdtemp(prefix="tc_")))
@@ -62,22 +69,41 @@ def run(mode: str):
     return pos, used, eng, epochs
 
 
+def _rms(e):
+    return float(np.sqrt(np.mean(np.sum(e ** 2, axis=1))))
+
+
 def test_tightly_coupled_beats_loosely_coupled_under_dynamics_driven_lock_loss():
+    """Realistic world. Measured (200 s): TC 5.65 m RMS 3D (max 14 m; 192 epochs
+    accepted, 4 gated), LC 89 m (9 fixes). The TC figure is set by the world's
+    broadcast-model residuals (1.3 m RMS per pseudorange after the common mode,
+    mostly the ionosphere) on the 2.3 satellites locked on average, which the
+    filter weights with the receiver's thermal-noise sigma (0.11-0.24 m, seed
+    004 eq. 11); the perfect-model world gives 0.66 m (next test)."""
     pos_tc, used_tc, eng_tc, epochs = run("tight")
     pos_lc, used_lc, _, _ = run("loose")
-    rms = lambda e: float(np.sqrt(np.mean(np.sum(e**2, axis=1))))  # noqa: E731
     few = sum(1 for e in epochs if 0 < int(np.sum(e.locked)) < 4)
     print(f"epochs with 1-3 locked satellites: {few}; GNSS epochs used TC {used_tc}, LC {used_lc}; "
-          f"position 3D RMS TC {rms(pos_tc):.2f} m, LC {rms(pos_lc):.2f} m, max TC {np.abs(pos_tc).max():.2f} m")
+          f"position 3D RMS TC {_rms(pos_tc):.2f} m, LC {_rms(pos_lc):.2f} m, max TC {np.abs(pos_tc).max():.2f} m")
     assert few > 20                                   # the dynamics leave fewer than 4 satellites often
     assert used_tc > used_lc + 20                     # TC keeps updating through those epochs
-    assert rms(pos_tc) < rms(pos_lc)
-    assert rms(pos_tc) < 2.0
+    assert _rms(pos_tc) < 0.2 * _rms(pos_lc)
+    assert _rms(pos_tc) < 8.0
     st = eng_tc.kf.stats["pseudorange"]
-    # Measured (pseudoranges and rates, seed004_tight): all 196 epochs pass the
-    # 0.9999 gate with mean NIS/dof ~0.9 once the nominal receiver clock bias
-    # integrates the estimated drift between updates (ErrorStateKF._propagate_extra);
-    # without that, half were gated on a common-mode clock residual.
     print(f"pseudorange updates accepted {st[0]}, gated {st[1]}, mean NIS/dof {st[2] / max(st[0], 1):.2f}")
+    assert st[1] <= 0.05 * used_tc
+
+
+def test_tightly_coupled_is_consistent_in_the_perfect_model_world():
+    """Perfect-model world (the receiver's noise is the only pseudorange error).
+    Measured: 0.66 m RMS 3D (max 3.0 m); all 196 epochs pass the 0.9999 gate
+    with mean NIS/dof 0.93 once the nominal receiver clock bias integrates the
+    estimated drift between updates (ErrorStateKF._propagate_extra); without
+    that, half were gated on a common-mode clock residual."""
+    pos_tc, used_tc, eng_tc, _ = run("tight", world="perfect")
+    st = eng_tc.kf.stats["pseudorange"]
+    print(f"position 3D RMS {_rms(pos_tc):.2f} m; pseudorange updates accepted {st[0]}, gated {st[1]}, "
+          f"mean NIS/dof {st[2] / max(st[0], 1):.2f}")
+    assert _rms(pos_tc) < 2.0
     assert st[1] <= 0.02 * used_tc
     assert 0.5 < st[2] / st[0] < 1.5

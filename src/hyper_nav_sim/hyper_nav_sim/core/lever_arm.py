@@ -39,15 +39,35 @@ free-free beam (beta_i l = 4.7300, 7.8532, 10.9956, modes normalised to
 mean(W^2) = 1 so that M_i = vehicle mass), IMU at x/l = 0.30 from the nose,
 centre of pressure at x/l = 0.55, 2 % damping, 1000 kg.
 
-Integration: exact discretisation (closed form for the under-damped
-oscillator, zeta < 1) per IMU interval, with w_i and zeta_i frozen at the
-interval midpoint and the force linear between the interval ends
-(first-order hold); int q dt is carried along, so the velocity increment of
-the r'' term (Y dq') and the integrals of r needed by the w' x r and
-w x w x r terms are exact for that force. The frequency drift is thus a
-staircase in the stiffness, equivalent to force steps d(w^2) q: about
-1e-6 m/s in q' (1e-8 m in q) of mode 3 at 50 Hz with the defaults. The rotation terms use w_ib at the start,
-middle and end of the interval (see ``lever_arm_dvel``).
+Integration (the world is not the filter's model, STYLE pattern 16): two
+methods, selected by the scenario's ``world.lever_arm.integrator``.
+
+* ``rk4`` (the realistic world, default for flights): the simulator's own
+  method, independent of the filter's discretisation. A fixed-step classical
+  Runge-Kutta (4th order, step ``world.lever_arm.step_s``, default 2 ms, an
+  integer number of steps per IMU interval) integrates the modal ODE *and*
+  eq. 1 itself as one system, [q, q', V] with V' = nabla_lever, with the
+  natural frequencies drifting continuously and the normal load, w_ib and
+  w_ib' evaluated from the truth at every stage (grid of half steps; w' by
+  central differences on that grid). The velocity increment of an IMU
+  interval is V(t) - V(t - dt). RK4 on the 113 rad/s mode with 2 ms steps:
+  w h = 0.23, phase error (w h)^5 / 120 = 5e-6 rad per step.
+  :func:`integrate_modes_rk4` (numba, cached; ``_rk4_kernel.py_func`` is
+  the plain reference a test compares with).
+* ``zoh`` (the perfect-model world, unit tests): the filter's own exact
+  discretisation (closed form for the under-damped oscillator, zeta < 1)
+  per IMU interval, with w_i and zeta_i frozen at the interval midpoint and
+  the force linear between the interval ends (first-order hold); int q dt is
+  carried along, so the velocity increment of the r'' term (Y dq') and the
+  integrals of r needed by the w' x r and w x w x r terms are exact for that
+  force (:func:`simulate_modes`, :func:`lever_arm_dvel`, which share
+  ``zoh_matrices`` and ``lever_arm_dvel`` with the filter). The frequency
+  drift is a staircase in the stiffness, equivalent to force steps d(w^2) q:
+  about 1e-6 m/s in q' (1e-8 m in q) of mode 3 at 50 Hz with the defaults.
+  The rotation terms use w_ib at the start, middle and end of the interval.
+
+The two differ by the integration method only (measured on seed 000, 300 s:
+see ``test_lever_arm.py::test_rk4_world_differs_from_the_filter_discretisation``).
 Only the accelerometers see the lever arm, as in the paper (eq. 14); the
 rotation of the IMU station by the mode slopes W_i'(x_A) q_i' is not
 added to the gyros.
@@ -56,6 +76,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.linalg import expm
 
@@ -308,17 +329,152 @@ def interval_rates(traj, t_end_s, dt_s: float):
     return w[:n], w[n:2 * n], w[2 * n:]
 
 
+INTEGRATORS = ("rk4", "zoh")
+
+
 def add_lever_arm_to_increments(dvel_b_mps, t_end_s, dt_s: float, traj, cfg: LeverArmConfig,
-                                load_n_at=None, rng=None, return_response: bool = False):
+                                load_n_at=None, rng=None, return_response: bool = False,
+                                integrator: str = "rk4", step_s: float = 0.002):
     """Velocity increments of the IMU at the elastic lever arm: the exact
-    (CG) increments plus the integral of eq. 1 over each interval. With
-    ``cfg.enabled`` false the input array is returned unchanged. The
-    default load is ``normal_force_from_trajectory(traj, cfg.vehicle_mass_kg)``."""
+    (CG) increments plus the integral of eq. 1 over each interval, by the
+    simulator's own fine-step Runge-Kutta (``integrator='rk4'``, realistic
+    world) or by the filter's exact discretisation (``'zoh'``, perfect-model
+    world), see the module docstring. With ``cfg.enabled`` false the input
+    array is returned unchanged. The default load is
+    ``normal_force_from_trajectory(traj, cfg.vehicle_mass_kg)``."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"world.lever_arm.integrator: expected one of {INTEGRATORS}, got {integrator!r}")
     if not cfg.enabled:
         return (dvel_b_mps, None) if return_response else dvel_b_mps
+    t_end = np.asarray(t_end_s, float)
+    if integrator == "rk4":
+        dv, resp = integrate_modes_rk4(cfg, t_end, dt_s, traj, step_s, load_n_at, rng)
+        out = dvel_b_mps + dv
+        return (out, resp) if return_response else out
     if load_n_at is None:
         load_n_at = normal_force_from_trajectory(traj, cfg.vehicle_mass_kg)
-    t_end = np.asarray(t_end_s, float)
     resp = simulate_modes(cfg, t_end, dt_s, load_n_at, rng)
     out = dvel_b_mps + lever_arm_dvel(cfg, resp, dt_s, *interval_rates(traj, t_end, dt_s))
     return (out, resp) if return_response else out
+
+
+@numba.njit(cache=True)
+def _rk4_kernel(h, q0, v0, w_nodes, zeta, u_nodes, u_held, om_nodes, omd_nodes, Y, r0):
+    """Classical RK4 over n = len(u_held) steps of [q, q', V, S] (modes,
+    their rates, V' = eq. 1, S' = q). Stage inputs at the half-step nodes
+    (index 2k = t_k, 2k + 1 = t_k + h/2, 2k + 2 = t_{k+1}): natural
+    frequencies w_nodes, modal force per mass u_nodes, body rate om_nodes and
+    its derivative omd_nodes, each (2n + 1, 3); u_held (n, 3) is added to the
+    force over each step (held modal noise). Returns q, q', V, S at the n + 1
+    step ends (n + 1, 3) each."""
+    n = u_held.shape[0]
+    q = np.empty((n + 1, 3))
+    v = np.empty((n + 1, 3))
+    V = np.zeros((n + 1, 3))
+    S = np.zeros((n + 1, 3))
+    q[0] = q0
+    v[0] = v0
+    kq = np.empty((4, 3))
+    kv = np.empty((4, 3))
+    kV = np.empty((4, 3))
+    kS = np.empty((4, 3))
+    xq = np.empty(3)
+    xv = np.empty(3)
+    acc = np.empty(3)
+    r = np.empty(3)
+    rd = np.empty(3)
+    rdd = np.empty(3)
+    wr = np.empty(3)
+    for k in range(n):
+        for s in range(4):
+            if s == 0:
+                j, c = 2 * k, 0.0
+            elif s == 3:
+                j, c = 2 * k + 2, 1.0
+            else:
+                j, c = 2 * k + 1, 0.5
+            for i in range(3):
+                if s == 0:
+                    xq[i] = q[k, i]
+                    xv[i] = v[k, i]
+                else:
+                    xq[i] = q[k, i] + c * h * kq[s - 1, i]
+                    xv[i] = v[k, i] + c * h * kv[s - 1, i]
+            for i in range(3):
+                w = w_nodes[j, i]
+                acc[i] = -2.0 * zeta[i] * w * xv[i] - w * w * xq[i] + u_nodes[j, i] + u_held[k, i]
+                kq[s, i] = xv[i]
+                kv[s, i] = acc[i]
+                kS[s, i] = xq[i]
+            for a in range(3):
+                r[a] = r0[a]
+                rd[a] = 0.0
+                rdd[a] = 0.0
+                for i in range(3):
+                    r[a] += Y[a, i] * xq[i]
+                    rd[a] += Y[a, i] * xv[i]
+                    rdd[a] += Y[a, i] * acc[i]
+            o0, o1, o2 = om_nodes[j, 0], om_nodes[j, 1], om_nodes[j, 2]
+            d0, d1, d2 = omd_nodes[j, 0], omd_nodes[j, 1], omd_nodes[j, 2]
+            # w x r, then eq. 1: r'' + 2 w x r' + w' x r + w x (w x r)
+            wr[0] = o1 * r[2] - o2 * r[1]
+            wr[1] = o2 * r[0] - o0 * r[2]
+            wr[2] = o0 * r[1] - o1 * r[0]
+            kV[s, 0] = (rdd[0] + 2.0 * (o1 * rd[2] - o2 * rd[1]) + (d1 * r[2] - d2 * r[1])
+                        + (o1 * wr[2] - o2 * wr[1]))
+            kV[s, 1] = (rdd[1] + 2.0 * (o2 * rd[0] - o0 * rd[2]) + (d2 * r[0] - d0 * r[2])
+                        + (o2 * wr[0] - o0 * wr[2]))
+            kV[s, 2] = (rdd[2] + 2.0 * (o0 * rd[1] - o1 * rd[0]) + (d0 * r[1] - d1 * r[0])
+                        + (o0 * wr[1] - o1 * wr[0]))
+        for i in range(3):
+            q[k + 1, i] = q[k, i] + h / 6.0 * (kq[0, i] + 2.0 * kq[1, i] + 2.0 * kq[2, i] + kq[3, i])
+            v[k + 1, i] = v[k, i] + h / 6.0 * (kv[0, i] + 2.0 * kv[1, i] + 2.0 * kv[2, i] + kv[3, i])
+            V[k + 1, i] = V[k, i] + h / 6.0 * (kV[0, i] + 2.0 * kV[1, i] + 2.0 * kV[2, i] + kV[3, i])
+            S[k + 1, i] = S[k, i] + h / 6.0 * (kS[0, i] + 2.0 * kS[1, i] + 2.0 * kS[2, i] + kS[3, i])
+    return q, v, V, S
+
+
+def integrate_modes_rk4(cfg: LeverArmConfig, t_end_s, dt_s: float, traj, step_s: float = 0.002,
+                        load_n_at=None, rng=None, q0=None, qdot0=None, kernel=None):
+    """The simulator's own integration of the modal equations (eq. 3/6) and
+    of eq. 1 over the uniform IMU intervals (t - dt, t] ending at
+    ``t_end_s`` (see the module docstring). Returns (dv (N, 3) [m/s], the
+    :class:`ModalResponse` at the interval ends; ``q_int`` = int q dt over
+    each interval). ``step_s`` is rounded down to dt / ceil(dt / step_s).
+    ``kernel``: None (compiled) or ``_rk4_kernel.py_func`` (reference)."""
+    t_end = np.asarray(t_end_s, float)
+    n_int = len(t_end)
+    m = int(np.ceil(dt_s / step_s - 1e-9))
+    h = dt_s / m
+    t0 = t_end[0] - dt_s
+    # nodes every h/2 from the start of the first interval to the end of the last
+    t_nodes = t0 + 0.5 * h * np.arange(2 * m * n_int + 1)
+    tr = traj.truth(np.concatenate([[t0 - 0.5 * h], t_nodes, [t_nodes[-1] + 0.5 * h]]))
+    om_all = tr.omega_ib_b_radps
+    om = om_all[1:-1]
+    omd = (om_all[2:] - om_all[:-2]) / h                          # central difference over +-h/2
+    load = (cfg.vehicle_mass_kg * tr.f_b_mps2[1:-1, 2]) if load_n_at is None else load_n_at(t_nodes)
+    u = cfg.modal_force_per_mass(load)
+    w = cfg.natural_freq_radps(t_nodes)
+    held = np.zeros((n_int, 3))
+    if np.any(cfg.modal_noise_per_sqrt_hz > 0.0):
+        if rng is None:
+            raise ValueError("lever_arm.modal_noise_per_sqrt_hz > 0 needs a numpy Generator")
+        held = rng.standard_normal((n_int, 3)) * cfg.modal_noise_per_sqrt_hz / np.sqrt(dt_s)
+    if q0 is None:
+        q0 = u[0] / w[0] ** 2 if cfg.start_at_equilibrium else np.zeros(3)
+    q0 = np.asarray(q0, float)
+    qdot0 = np.zeros(3) if qdot0 is None else np.asarray(qdot0, float)
+    run = _rk4_kernel if kernel is None else kernel
+    q, qd, V, S = run(h, q0, qdot0, np.ascontiguousarray(w), np.ascontiguousarray(cfg.damping_ratio, float),
+                      np.ascontiguousarray(u), np.repeat(held, m, axis=0), np.ascontiguousarray(om),
+                      np.ascontiguousarray(omd), np.ascontiguousarray(cfg.Y), np.ascontiguousarray(cfg.r0_b_m))
+    ends = m * np.arange(n_int + 1)
+    dv = np.diff(V[ends], axis=0)
+    q_e, qd_e = q[ends[1:]], qd[ends[1:]]
+    w_end = cfg.natural_freq_radps(t_end)
+    qdd = -2.0 * cfg.damping_ratio * w_end * qd_e - w_end ** 2 * q_e + u[2 * ends[1:]] + held
+    Y = cfg.Y
+    resp = ModalResponse(t_end, q_e, qd_e, qdd, np.diff(S[ends], axis=0), q0, qdot0,
+                         cfg.r0_b_m + q_e @ Y.T, qd_e @ Y.T, qdd @ Y.T)
+    return dv, resp

@@ -77,7 +77,7 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar")
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "world")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth"}
 
@@ -217,6 +217,16 @@ class Scenario:
         """The tightly coupled GNSS input the fusion node builds from these parameters."""
         return tight_gnss_input(self.tight_gnss_parameters())
 
+    def world_config(self):
+        """The ``world:`` block (:class:`.world.WorldConfig`; absent = realistic)."""
+        from .world import WorldConfig
+        return WorldConfig.from_config(self.data.get("world"))
+
+    def world_seed(self) -> int:
+        """Seed of this scenario's world realisation (ionosphere, meteorology,
+        orbit/clock errors): a function of ``seed`` only."""
+        return int(self.rng("world").integers(2 ** 31))
+
     def rng(self, stream: str) -> np.random.Generator:
         """Independent, reproducible random stream per sensor."""
         return np.random.default_rng([self["seed"], sum(stream.encode())])
@@ -279,7 +289,9 @@ def _validate_models(data: dict, source: str) -> None:
     from .imu_model import ImuErrors
     from .lever_arm import LeverArmConfig
     from .mag_model import MagnetometerErrors
-    checks = [("imu", lambda d: ImuErrors.from_config(d)),
+    from .world import WorldConfig
+    checks = [("world", lambda d: WorldConfig.from_config(d)),
+              ("imu", lambda d: ImuErrors.from_config(d)),
               ("magnetometer", lambda d: MagnetometerErrors.from_config(d)),
               ("flight", lambda d: parse_flight(d)),
               ("lever_arm", lambda d: LeverArmConfig.from_config(d)),

@@ -29,7 +29,9 @@ class ImuStream:
 def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
     """IMU increments; with ``lever_arm.enabled`` the elastic lever-arm
     acceleration (seed 000 eq. 1) is added to the accelerometers before the
-    sensor errors."""
+    sensor errors, integrated as ``world.lever_arm`` says (the simulator's
+    own Runge-Kutta in the realistic world, the filter's discretisation in
+    the perfect-model one)."""
     dt = 1.0 / sc["imu.rate_hz"]
     t = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
     dth, dv = traj.imu_increments(t, dt)
@@ -38,21 +40,35 @@ def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
     if "lever_arm" in sc.data:
         cfg = LeverArmConfig.from_config(sc.data["lever_arm"])
         if cfg.enabled:
-            dv = add_lever_arm_to_increments(dv, t, dt, traj, cfg, rng=sc.rng("lever_arm"))
+            world = sc.world_config()
+            dv = add_lever_arm_to_increments(dv, t, dt, traj, cfg, rng=sc.rng("lever_arm"),
+                                             integrator=world.lever_arm_integrator, step_s=world.lever_arm_step_s)
     dth, dv = corrupt_increments(dth, dv, dt, ImuErrors.from_scenario(sc), sc.rng("imu"))
     return ImuStream(t, dt, dth, dv)
 
 
-def gnss_raw_stream(sc: Scenario, traj):
-    """Raw GNSS epochs (pseudoranges, Doppler, lock flags, ephemerides, LS
-    fix) from the receiver simulation configured by ``gnss.raw``, at
-    ``gnss.rate_hz``: a list of ``core.gnss.receiver.GnssEpoch``."""
-    from .gnss.receiver import GnssReceiverSim
+def gnss_receiver(sc: Scenario):
+    """The receiver simulation configured by ``gnss.raw`` in the scenario's
+    world (``world:`` block, :mod:`.gnss.world`)."""
+    from .gnss.receiver import GnssReceiverConfig, GnssReceiverSim
+    from .gnss.world import GnssWorld
     cfg = dict(sc.data["gnss"]["raw"])
     cfg["rate_hz"] = sc["gnss.rate_hz"]
     cfg.setdefault("antenna_lever_arm_b_m", sc["gnss.antenna_lever_arm_b_m"])
+    rx = GnssReceiverSim(GnssReceiverConfig.from_dict(cfg))
+    world = sc.world_config()
+    if world.realistic:
+        rx.world = GnssWorld.realistic(rx.broadcast_ionosphere(), rx.cfg.troposphere == "hopfield", world,
+                                       sc.world_seed())
+    return rx
+
+
+def gnss_raw_stream(sc: Scenario, traj):
+    """Raw GNSS epochs (pseudoranges, Doppler, lock flags, ephemerides, LS
+    fix) from :func:`gnss_receiver` at ``gnss.rate_hz``: a list of
+    ``core.gnss.receiver.GnssEpoch``."""
     t = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
-    return GnssReceiverSim(cfg).simulate(traj, t, sc.rng("gnss_raw"))
+    return gnss_receiver(sc).simulate(traj, t, sc.rng("gnss_raw"))
 
 
 def gnss_stream(sc: Scenario, traj) -> GnssFixes:

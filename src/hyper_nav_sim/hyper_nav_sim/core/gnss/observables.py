@@ -84,29 +84,42 @@ class Observables:
     carrier_hz: np.ndarray
     el_rad: np.ndarray
     az_rad: np.ndarray
-    r_sat_e_m: np.ndarray                  # at transmit time, in ECEF(t_tx)
+    r_sat_e_m: np.ndarray                  # true, at transmit time, in ECEF(t_tx)
     v_sat_e_mps: np.ndarray
-    sat_clk_bias_m: np.ndarray             # c dt_sat incl. relativity, minus c TGD
+    sat_clk_bias_m: np.ndarray             # true c dt_sat incl. relativity, minus c TGD
     sat_clk_drift_mps: np.ndarray
-    iono_m: np.ndarray
+    iono_m: np.ndarray                     # the receiver's broadcast models (what it corrects)
     tropo_m: np.ndarray
     tau_s: np.ndarray
     pr_sigma_m: np.ndarray
     rate_sigma_mps: np.ndarray
+    iono_true_m: np.ndarray                # the delays the signal went through (world)
+    tropo_true_m: np.ndarray
 
 
 def compute_observables(ephs, t_gpst_s, r_rx_e_m, v_rx_e_mps, rx_clk_bias_m=0.0, rx_clk_drift_mps=0.0,
                         iono=None, tropo=True, rng: np.random.Generator | None = None,
-                        rate_sigma_mps=0.05, pr_sigma_fn=pr_sigma_m):
+                        rate_sigma_mps=0.05, pr_sigma_fn=pr_sigma_m, world=None):
     """Observables of satellites ``ephs`` for a receiver at ECEF r [m], v [m/s]
     (Earth-fixed frame) at true time ``t_gpst_s`` (continuous GPST).
 
     iono: None (off) or {'G': (alpha, beta), 'C': (alpha, beta)} Klobuchar sets;
-    tropo: apply Hopfield (quartic height model); rng: None -> noise-free.
+    tropo: apply Hopfield (quartic height model); these are the receiver's
+    broadcast models, returned in ``iono_m`` / ``tropo_m`` (what it corrects).
+    world: the :class:`.world.GnssWorld` the signals go through (true
+    ionosphere, troposphere, orbits and clocks); None = the perfect model
+    (the broadcast models and records are the truth). rng: None -> noise-free.
     Sigmas are returned either way."""
     r_rx = np.asarray(r_rx_e_m, float)
     v_rx = np.asarray(v_rx_e_mps, float)
+    if world is None:
+        from .world import GnssWorld
+        world = GnssWorld.perfect(iono, tropo)
     r_s, v_s, cb, cd, tau, R, dR = satellite_states_at_reception(ephs, t_gpst_s, r_rx)
+    tgd = np.array([e.tgd for e in ephs])
+    # the truth: broadcast states + (true - broadcast) of the world
+    r_s, v_s, sat_clk_m, sat_drift_mps = world.satellite_truth(ephs, t_gpst_s, r_s, v_s, C_MPS * (cb - tgd),
+                                                               C_MPS * cd)
     rr = np.einsum("kij,kj->ki", R, r_s)
     vr = np.einsum("kij,kj->ki", R, v_s)
     d = rr - r_rx
@@ -114,22 +127,28 @@ def compute_observables(ephs, t_gpst_s, r_rx_e_m, v_rx_e_mps, rx_clk_bias_m=0.0,
     u = d / rng_geo[:, None]
     g = 1.0 - np.einsum("ki,ki->k", u, np.einsum("kij,kj->ki", dR, r_s) - vr) / C_MPS
     rate_geo = np.einsum("ki,ki->k", u, vr - v_rx) / g
-    tgd = np.array([e.tgd for e in ephs])
-    sat_clk_m = C_MPS * (cb - tgd)
-    sat_drift_mps = C_MPS * cd
     el, az = elevation_azimuth(r_rx, rr)
     lat, lon, alt = earth.ecef_to_geodetic(r_rx)
     f = np.array([CARRIER_HZ[e.system] for e in ephs])
-    iono_m = np.zeros(len(ephs))
+    n = len(ephs)
+    iono_m, iono_true_m = np.zeros(n), np.zeros(n)
     if iono is not None:
         for k, e in enumerate(ephs):
             if e.system in iono:
                 a, b = iono[e.system]
                 iono_m[k] = klobuchar_delay_m(a, b, lat, lon, max(el[k], 0.0), az[k], t_gpst_s, f[k])
-    tropo_m = hopfield_delay_m(np.maximum(el, 0.0), alt)[0] if tropo else np.zeros(len(ephs))
+    if world.ionosphere is not None:
+        systems = np.array([e.system for e in ephs])
+        for sys_ in set(systems.tolist()):
+            sel = systems == sys_
+            iono_true_m[sel] = world.ionosphere.slant_delay_m(sys_, lat, lon, alt, el[sel], az[sel], t_gpst_s,
+                                                              f[sel])
+    tropo_m = hopfield_delay_m(np.maximum(el, 0.0), alt)[0] if tropo else np.zeros(n)
+    tropo_true_m = (world.troposphere.slant_delay_m(lat, lon, alt, el, t_gpst_s) if world.troposphere is not None
+                    else np.zeros(n))
     sig_pr = pr_sigma_fn(el)
-    sig_rate = np.full(len(ephs), float(rate_sigma_mps))
-    pr = rng_geo + rx_clk_bias_m - sat_clk_m + iono_m + tropo_m
+    sig_rate = np.full(n, float(rate_sigma_mps))
+    pr = rng_geo + rx_clk_bias_m - sat_clk_m + iono_true_m + tropo_true_m
     prr = rate_geo + rx_clk_drift_mps - sat_drift_mps
     if rng is not None:
         pr = pr + sig_pr * rng.standard_normal(pr.size)
@@ -137,4 +156,4 @@ def compute_observables(ephs, t_gpst_s, r_rx_e_m, v_rx_e_mps, rx_clk_bias_m=0.0,
     lam = C_MPS / f
     return Observables(t_gpst_s + rx_clk_bias_m / C_MPS, [e.sat_id for e in ephs], pr, prr, -prr / lam,
                        rng_geo, rate_geo, -rate_geo / lam, f, el, az, r_s, v_s, sat_clk_m, sat_drift_mps,
-                       iono_m, tropo_m, tau, sig_pr, sig_rate)
+                       iono_m, tropo_m, tau, sig_pr, sig_rate, iono_true_m, tropo_true_m)

@@ -14,7 +14,9 @@ Configuration is the ``gnss:`` block of a scenario YAML (plain dict), see
    the antenna are the channels.
 3. Observables (:func:`.observables.compute_observables`): pseudorange,
    pseudorange rate, Doppler, with the receiver clock truth (two-state Allan
-   model), Klobuchar/Hopfield delays and (with an rng) noise.
+   model), the delays, satellite orbits and clocks of the simulated world
+   (:mod:`.world`: the broadcast models themselves in the perfect-model
+   world, independent ones in the realistic world) and (with an rng) noise.
 4. Lock (:class:`.lock.LockModel`): vehicle-induced Doppler u.v_a/lambda and its
    rate (u_dot.v_a + u.a_a)/lambda from the truth motion; scripted outages.
 5. PVT (:func:`.pvt.solve_pvt`) from the locked satellites, corrected with the
@@ -41,6 +43,7 @@ from .lock import LockConfig, LockModel
 from .nominal import gpst_from_date, nominal_constellation
 from .observables import CARRIER_HZ, ClockModel, compute_observables, pr_sigma_m
 from .pvt import solve_pvt
+from .world import GnssWorld
 
 EPHEMERIS_BLOCK_S = 7200.0
 
@@ -83,9 +86,9 @@ class GnssReceiverConfig:
     pseudorange_sigma_m: a number [m] or 'elevation' (seed 004 eq. 11,
     0.11 + 0.13 exp(-E/4deg)); clock: h0 [s], h_m2 [1/s], initial bias_m [m],
     drift_mps [m/s]; ionosphere 'klobuchar' | 'off' (klobuchar_alpha/beta
-    override the nominal coefficients; the truth delay is
-    ionosphere_truth_scale x the broadcast model, the PVT corrects with the
-    model); troposphere 'hopfield' | 'off'; lock: :class:`.lock.LockConfig`
+    override the nominal coefficients; the PVT corrects with the broadcast
+    model; the truth is the simulator's world, see :mod:`.world`; in the
+    perfect-model world it is ionosphere_truth_scale x the broadcast model); troposphere 'hopfield' | 'off'; lock: :class:`.lock.LockConfig`
     fields (outages [[t0, t1], ...] in scenario seconds); antenna lever arm in
     body FLU axes [m]; C/N0 linear in sin(elevation) between horizon and zenith values."""
     systems: tuple = ("G",)
@@ -243,6 +246,8 @@ class GnssEpoch:
     antenna_r_e_m: np.ndarray         # truth
     antenna_v_e_mps: np.ndarray
     fix: GnssFix | None
+    iono_true_m: np.ndarray | None = None     # delays the signals went through (the world)
+    tropo_true_m: np.ndarray | None = None
 
     def raw(self) -> RawGnssEpoch:
         """What the receiver outputs at this epoch (the content of ``gnss/raw``)
@@ -269,9 +274,22 @@ def _sample_clock(cfg: GnssReceiverConfig, t, rng):
 
 
 class GnssReceiverSim:
-    def __init__(self, config: GnssReceiverConfig | dict | None = None):
+    """``world``: the :class:`.world.GnssWorld` the signals go through; None =
+    the perfect model (truth = the broadcast models and records, with the
+    ionosphere scaled by ``ionosphere_truth_scale``)."""
+
+    def __init__(self, config: GnssReceiverConfig | dict | None = None, world=None):
         self.cfg = config if isinstance(config, GnssReceiverConfig) else GnssReceiverConfig.from_dict(config)
         self._sets: dict[int, list] = {}
+        self.world = world if world is not None else GnssWorld.perfect(
+            self.broadcast_ionosphere(), self.cfg.troposphere == "hopfield", self.cfg.ionosphere_truth_scale)
+
+    def broadcast_ionosphere(self) -> dict | None:
+        """{system: (alpha, beta)} the satellites broadcast (None: ionosphere off)."""
+        c = self.cfg
+        if c.ionosphere != "klobuchar":
+            return None
+        return {s: (np.array(c.klobuchar_alpha), np.array(c.klobuchar_beta)) for s in c.systems}
 
     # ---- ephemerides ---------------------------------------------------------------------------
     def ephemeris_set(self, t_s: float) -> list:
@@ -329,8 +347,7 @@ class GnssReceiverSim:
         r_a, v_a, a_a = self.antenna_truth(trajectory, t_ep)
         clk_b, clk_d = _sample_clock(c, t_ep, rng)
         lock = LockModel(c.lock)
-        iono_model = {s: (np.array(c.klobuchar_alpha), np.array(c.klobuchar_beta)) for s in c.systems} \
-            if c.ionosphere == "klobuchar" else None
+        iono_model = self.broadcast_ionosphere()
         sig_fn = (pr_sigma_m if c.pseudorange_sigma_m == "elevation"
                   else (lambda el: np.full(np.shape(el), float(c.pseudorange_sigma_m))))
         out = []
@@ -354,8 +371,9 @@ class GnssReceiverSim:
             if n:
                 obs = compute_observables(ephs, t_g, r_a[k], v_a[k], clk_b[k], clk_d[k], iono=iono_model,
                                           tropo=c.troposphere == "hopfield", rng=rng,
-                                          rate_sigma_mps=c.pseudorange_rate_sigma_mps, pr_sigma_fn=sig_fn)
-                pr = obs.pseudorange_m + (c.ionosphere_truth_scale - 1.0) * obs.iono_m
+                                          rate_sigma_mps=c.pseudorange_rate_sigma_mps, pr_sigma_fn=sig_fn,
+                                          world=self.world)
+                pr = obs.pseudorange_m
                 lam = C_MPS / obs.carrier_hz
                 # line of sight in ECEF(t) and its rate, vehicle Doppler and rate
                 d = r_sat_k[keep] - r_a[k]
@@ -396,7 +414,7 @@ class GnssReceiverSim:
                 locked, obs.pr_sigma_m if n else z, obs.rate_sigma_mps if n else z,
                 obs.iono_m if n else z, obs.tropo_m if n else z, fd_veh if n else z, fd_veh_rate if n else z,
                 obs.geometric_rate_mps if n else z, ephs, eset, float(clk_b[k]), float(clk_d[k]),
-                r_a[k], v_a[k], fix))
+                r_a[k], v_a[k], fix, obs.iono_true_m if n else z, obs.tropo_true_m if n else z))
         return out
 
 

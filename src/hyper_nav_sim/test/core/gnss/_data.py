@@ -1,14 +1,11 @@
 """Locate /work/shared/gnss-real (beside the repo) for the GNSS tests."""
 from __future__ import annotations
 
-import csv
-import datetime as dt
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-from hyper_nav_sim.core.gnss.ephemeris import calendar_to_system_s
+from hyper_nav_sim.core.gnss import broadcast_error
 
 # this file: <repo>/src/hyper_nav_sim/test/core/gnss/_data.py -> parents[5] = repo root
 REAL_DIR = Path(__file__).resolve().parents[5] / ".." / "shared" / "gnss-real"
@@ -26,12 +23,4 @@ def real_file(name: str) -> Path:
 
 def read_sp3_csv(name: str):
     """Rows (t_gpst_s, sat, r_e_m[3], clk_s or nan)."""
-    rows = []
-    with open(real_file(name)) as fh:
-        for r in csv.DictReader(fh):
-            t = dt.datetime.fromisoformat(r["epoch_gpst"])
-            ts = calendar_to_system_s("G", t.year, t.month, t.day, t.hour, t.minute, t.second)
-            clk = float(r["clk_us"])
-            rows.append((ts, r["sat"], np.array([float(r["x_km"]), float(r["y_km"]), float(r["z_km"])]) * 1e3,
-                         np.nan if clk > 999990 else clk * 1e-6))
-    return rows
+    return broadcast_error.read_sp3_csv(real_file(name))
