@@ -5,12 +5,13 @@ SCENARIO ?= default
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help
+.PHONY: setup run test clean bench help seed004
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
+	@echo "make seed004 - reproduce seed 004 Tables 4-5 (virtual GNSS under lock loss) into bags/seed004_tables"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
 
 setup:
@@ -24,6 +25,9 @@ test: setup
 
 bench: setup
 	@$(ENV) python benchmarks/run_all.py
+
+seed004: setup
+	@$(ENV) ros2run hyper_nav_aiding reproduce_seed004 --out bags/seed004_tables $(ARGS)
 
 clean:
 	rm -rf build install log

@@ -16,5 +16,10 @@ setup(
     maintainer_email="maintainers@hyper-nav.org",
     description="Navigation aiding: geomagnetic matching, virtual pseudoranges, lever-arm learning.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={
+        "console_scripts": [
+            "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
+            "reproduce_seed004 = hyper_nav_aiding.reproduce_seed004:main",
+        ],
+    },
 )

@@ -7,6 +7,9 @@ Layout (same core/wrapper split as the other packages):
           elastic lever-arm natural frequencies (seed 000)
   nodes/  thin rclpy nodes publishing aiding measurements to the fusion node
 
-The algorithms and nodes land with their issues; this package currently
-holds only its structure (issue #2 asks for no more).
+Virtual GNSS (issue #8): core/virtual_gnss.py (state machine: stored
+ephemerides, lock-loss detection, nothing stale), core/virtual_pseudoranges.py
+(eqs. 8-11), core/alpha_beta.py and core/fused_extrapolation.py (vehicle
+position sources), core/virtual_gnss_config.py; nodes/virtual_gnss_node.py;
+reproduce_seed004.py (Tables 4-5, ``ros2run hyper_nav_aiding reproduce_seed004``).
 """

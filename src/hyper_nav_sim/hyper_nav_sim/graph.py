@@ -44,6 +44,11 @@ from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
+# aiding nodes started when their scenario block says enabled: node -> (block, inputs(block) -> topics
+# whose publishers wait for it; nav/state is not among them: the fusion node waits for one subscriber
+# count on all its outputs, and no nav/state flows before the IMU, whose publisher waits for the node)
+AIDING_NODES = {"virtual_gnss": ("virtual_gnss", lambda b: {"gnss/raw", "gnss/ephemeris", "imu/data_raw"} | (
+    {"gnss/fix"} if b.get("position_source") == "alpha_beta" else set()))}
 FUSION_INPUTS = {"loose": {"imu/data_raw", "gnss/fix", "gnss/vel"},          # by filter.gnss_mode
                  "tight": {"imu/data_raw", "gnss/raw", "gnss/ephemeris"}}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
@@ -52,6 +57,7 @@ EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim"
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
+               "virtual_gnss": ("hyper_nav_aiding", "virtual_gnss_node"),
                "player": ("hyper_nav_sim", "player")}
 
 
@@ -113,6 +119,8 @@ class Graph:
         if nodes is None:
             nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
                                                if block in self.scenario.data) + ("fusion",)
+            nodes += tuple(n for n, (block, _) in AIDING_NODES.items()
+                           if (self.scenario.data.get(block) or {}).get("enabled", False))
         self.nodes = tuple(nodes)
         self.extra = dict(extra_subscribers or {})
         self.node_params = node_params or {}
@@ -128,6 +136,8 @@ class Graph:
         n = 1 if self.record else 0
         if "fusion" in self.nodes and FUSION_INPUTS[self.scenario["filter.gnss_mode"]] & set(topics):
             n += 1
+        n += sum(1 for name, (block, inputs) in AIDING_NODES.items()
+                 if name in self.nodes and inputs(self.scenario.data.get(block) or {}) & set(topics))
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
     def _params(self, name: str) -> dict:
@@ -143,6 +153,10 @@ class Graph:
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
             p["min_output_subscribers"] = self._subscribers(FUSION_OUTPUTS)
+        elif name == "virtual_gnss":
+            from hyper_nav_aiding.parameters import from_scenario
+            p = from_scenario(self.scenario)
+            p["min_output_subscribers"] = self._subscribers([p["virtual_gnss.topic"]])
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"])}
         else:

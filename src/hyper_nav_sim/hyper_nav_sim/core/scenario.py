@@ -77,7 +77,7 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "world")
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "world", "virtual_gnss", "reproduction")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth"}
 
@@ -303,6 +303,16 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 msg = str(exc)
                 raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
+    if "virtual_gnss" in data:
+        try:        # the aiding package validates its own block (errors name the field)
+            from hyper_nav_aiding.core.virtual_gnss_config import VirtualGnssConfig
+        except ImportError:
+            VirtualGnssConfig = None
+        if VirtualGnssConfig is not None:
+            try:
+                VirtualGnssConfig.from_config(data["virtual_gnss"])
+            except ValueError as exc:
+                raise ScenarioError(f"{source}: {exc}") from None
     raw = (data.get("gnss") or {}).get("raw")
     if raw is not None:
         from .gnss.receiver import GnssReceiverConfig
