@@ -58,9 +58,10 @@ class Flight:
 
 
 def prepare(seed: int, world: str = "realistic", duration_s: float | None = None,
-            scenario: str = SCENARIO) -> Flight:
-    """Simulate the flight of scenario ``seed``: ``world`` 'realistic' | 'perfect'."""
-    over = {"seed": int(seed), "world.model": world}
+            scenario: str = SCENARIO, overrides: dict | None = None) -> Flight:
+    """Simulate the flight of scenario ``seed``: ``world`` 'realistic' |
+    'perfect'; ``overrides``: further dotted scenario fields."""
+    over = {"seed": int(seed), "world.model": world, **(overrides or {})}
     if duration_s is not None:
         over["duration_s"] = float(duration_s)
     tmp = pathlib.Path(tempfile.mkdtemp(prefix="seed004_"))
