@@ -6,14 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
+from hyper_nav_filter.conversions import GNSS_SYSTEMS, s_to_stamp_fields, stamp_to_s
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.attitude import quat_xyzw_to_C
 from hyper_nav_filter.core.gnss.ephemeris import C_MPS, SECONDS_PER_WEEK
 from hyper_nav_filter.core.gnss.propagation import CARRIER_HZ
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 
-SYSTEM_CODES = {"G": 1, "C": 3}          # hyper_nav_msgs/GnssMeasurements SYSTEM_GPS, SYSTEM_BDS
+SYSTEM_CODES = {s: code for code, s in GNSS_SYSTEMS.items()}      # 'G' -> 1 (SYSTEM_GPS), 'C' -> 3
 
 
 def nav_state(msg) -> tuple[NavState, float]:
@@ -58,10 +58,11 @@ def imu_sample(msg, t_prev_s: float | None) -> ImuSample | None:
     return ImuSample(t, dt, np.array([w.x, w.y, w.z]) * dt, np.array([a.x, a.y, a.z]) * dt)
 
 
-def fill_gnss_measurements(msg, epoch, elevation_rad, azimuth_rad, frame_id: str):
-    """Fill a hyper_nav_msgs/GnssMeasurements from a virtual RawGnssEpoch:
-    every channel ``locked`` (usable) and ``is_virtual``; Doppler from the
-    rate; no signal, so C/N0 0."""
+def fill_gnss_measurements(msg, epoch, elevation_rad, azimuth_rad, frame_id: str, virtual: bool = True):
+    """Fill a hyper_nav_msgs/GnssMeasurements from a RawGnssEpoch. Virtual
+    (default): every channel ``locked`` (usable) and ``is_virtual``, no
+    signal so C/N0 0; else the epoch's lock flags, ``is_virtual`` empty
+    (a receiver epoch, for offline studies). Doppler from the rate."""
     msg.header.stamp.sec, msg.header.stamp.nanosec = s_to_stamp_fields(epoch.t_s)
     msg.header.frame_id = frame_id
     week = int(epoch.t_rx_gpst_s // SECONDS_PER_WEEK)
@@ -75,6 +76,6 @@ def fill_gnss_measurements(msg, epoch, elevation_rad, azimuth_rad, frame_id: str
                       ("doppler_hz", -np.asarray(epoch.rate_mps) * f / C_MPS), ("carrier_frequency_hz", f),
                       ("cn0_dbhz", np.zeros(len(f))), ("elevation_rad", elevation_rad), ("azimuth_rad", azimuth_rad)):
         setattr(msg, name, [float(x) for x in arr])
-    msg.locked = [True] * len(f)
-    msg.is_virtual = [True] * len(f)
+    msg.locked = [True] * len(f) if virtual else [bool(x) for x in epoch.locked]
+    msg.is_virtual = [True] * len(f) if virtual else []
     return msg

@@ -102,9 +102,15 @@ def from_scenario(sc) -> dict:
     for f in fields(cfg):
         val = getattr(cfg, f.name)
         out[f"virtual_gnss.{f.name}"] = str(val) if f.name == "pseudorange_sigma_m" else val
-    tight = sc.tight_gnss_parameters()
-    out.update({k: tight[k] for k in ("gnss.ionosphere", "gnss.klobuchar_alpha", "gnss.klobuchar_beta",
-                                      "gnss.troposphere")})
+    # the receiver's broadcast models: those of the scenario's (first) gnss_raw source, which
+    # default to the gnss.raw block's (the Klobuchar set its satellites broadcast)
+    raw = next((e for e in sc.filter_sources().values() if e.get("type") == "gnss_raw"), {})
+    from hyper_nav_sim.core.gnss.receiver import GnssReceiverConfig
+    rx = GnssReceiverConfig.from_dict(sc.data.get("gnss", {}).get("raw"))
+    out.update({"gnss.ionosphere": raw.get("ionosphere", rx.ionosphere),
+                "gnss.klobuchar_alpha": [float(x) for x in raw.get("klobuchar_alpha", rx.klobuchar_alpha)],
+                "gnss.klobuchar_beta": [float(x) for x in raw.get("klobuchar_beta", rx.klobuchar_beta)],
+                "gnss.troposphere": raw.get("troposphere", rx.troposphere)})
     out.update({"gnss.rate_hz": float(sc["gnss.rate_hz"]),
                 "antenna_lever_arm_b_m": [float(x) for x in sc["gnss.antenna_lever_arm_b_m"]],
                 "seed": int(sc["seed"]), "qos.depth": int(sc["graph.qos_depth"])})

@@ -1,9 +1,9 @@
 """Seed 004 (Gao et al. 2023) section 3, Tables 4-5: the four cases flown
-offline through the fusion core (no ROS), the way the node graph would
-feed it: the receiver's raw epochs and ephemerides through the tightly
-coupled input (``TightGnssInput``, the ``gnss_raw`` source), and in case (b)
-the virtual GNSS core's epochs through a second input with the virtual
-source's own sigmas.
+offline through the fusion core (no ROS), the way the node graph feeds it:
+messages through the scenario's declared sources, the receiver's raw epochs
+and ephemerides through the ``gnss_raw`` source, and in case (b) the
+virtual GNSS core's epochs through the ``gnss_virtual`` source with its own
+noise.
 
 Cases (issue #8), scenario ``seed004_virtual`` (lock lost on every
 satellite from 30 s, never regained):
@@ -19,7 +19,6 @@ satellite from 30 s, never regained):
 """
 from __future__ import annotations
 
-import dataclasses
 import pathlib
 import tempfile
 import time
@@ -27,17 +26,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import TightGnssInput
 from hyper_nav_filter.core.nav_state import ImuSample
+from hyper_nav_filter.sources.router import SourceRouter
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.gnss.undetected_lock_loss import UndetectedLockLoss
 from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.gnss_messages import fill_gnss_ephemeris
 from hyper_nav_sim.graph import apply_overrides
 
+from .conversions import fill_gnss_measurements
 from .core.virtual_gnss import VirtualGnss
-from .core.virtual_gnss_config import VirtualGnssConfig
+from .parameters import VirtualGnssNodeParams, from_scenario
 
 CASES = ("a", "b", "c", "d")
 CASE_NAMES = {"a": "no lock loss", "b": "lock loss, virtual compensation",
@@ -88,25 +90,16 @@ class CaseResult:
     wall_s: float
 
 
-def source_noise(sc) -> tuple[float, float]:
-    """(pseudorange, rate) 1-sigma floors [m, m/s] of the receiver's source,
-    from the scenario's ``reproduction`` block: the filter designer's range
-    error budget (UERE), added in quadrature to the thermal-noise sigma the
-    receiver reports, since the broadcast-model residuals are metres (the
-    realistic world: 1.3 m RMS per range on seed 004). A stand-in for the
-    per-source noise of the fusion node's declared sources (issue #5)."""
-    r = sc.data.get("reproduction") or {}
-    pr, rate = r.get("pseudorange_sigma_floor_m", 0.0), r.get("rate_sigma_floor_mps", 0.0)
-    for name, v in (("pseudorange_sigma_floor_m", pr), ("rate_sigma_floor_mps", rate)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
-            raise ValueError(f"reproduction.{name}: expected a number >= 0, got {v!r}")
-    return float(pr), float(rate)
-
-
-def with_noise_floor(raw, pr_floor_m: float, rate_floor_mps: float):
-    """The raw epoch with the source's sigma floors added in quadrature."""
-    return dataclasses.replace(raw, pseudorange_sigma_m=np.hypot(raw.pseudorange_sigma_m, pr_floor_m),
-                               rate_sigma_mps=np.hypot(raw.rate_sigma_mps, rate_floor_mps))
+def imu_message(t_s: float, dt_s: float, dtheta_b_rad, dvel_b_mps):
+    """sensor_msgs/Imu as the imu node publishes it (mean rates over the interval)."""
+    from sensor_msgs.msg import Imu
+    m = Imu()
+    m.header.stamp.sec, m.header.stamp.nanosec = s_to_stamp_fields(t_s)
+    w, a = np.asarray(dtheta_b_rad) / dt_s, np.asarray(dvel_b_mps) / dt_s
+    m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = map(float, w)
+    m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, a)
+    m.orientation_covariance[0] = -1.0
+    return m
 
 
 def run_case(fl: Flight, case: str, virtual: dict | None = None, rng_seed: int = 0, gate: bool = True) -> CaseResult:
@@ -114,60 +107,65 @@ def run_case(fl: Flight, case: str, virtual: dict | None = None, rng_seed: int =
     the scenario's ``virtual_gnss`` block (case b). ``gate=False`` flies the
     paper's filter, which has no innovation gate: without it the corrupted
     observations of case (c) reach the filter (with our chi-square gate they
-    are all rejected and (c) is (d))."""
+    are all rejected and (c) is (d)).
+
+    The fusion core takes the messages through the scenario's declared
+    sources (``hyper_nav_filter.sources.SourceRouter``, the fusion node's
+    code): ``imu/data_raw``, ``gnss/raw`` + ``gnss/ephemeris`` (source
+    ``gnss_raw``, tracked channels) and, in case (b), ``gnss/virtual`` (source
+    ``gnss_virtual``, virtual channels, its own noise), in the order the node
+    receives them; the virtual GNSS core takes what its node takes."""
+    from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
     if case not in CASES:
         raise ValueError(f"case must be one of {CASES}, got {case!r}")
     sc = fl.sc
-    floor = source_noise(sc)
     epochs = fl.epochs_no_loss if case == "a" else fl.epochs_loss
     cfg = sc.filter_config()
+    table = {k: v for k, v in sc.filter_sources().items() if case == "b" or v.get("channels") != "virtual"}
     eng = FusionEngine(cfg, sc.filter_initial_state())
     if not gate:
-        eng.kf.gate_threshold = lambda dof: np.inf      # the paper's filter (eq. 1-7) gates nothing
-    real = sc.tight_gnss_input()
-    virt_in = vg = corrupt = None
+        eng.kf.gate_threshold = lambda dof: np.inf      # the paper's filter (eqs. 1-7) gates nothing
+    router = SourceRouter(eng, table)
+    vg = corrupt = None
     if case == "b":
-        vcfg = VirtualGnssConfig.from_config({**(sc.data.get("virtual_gnss") or {}), **(virtual or {})})
-        virt_in = TightGnssInput(real.corrections, real.use_rates, real.hold_s)
-        vg = VirtualGnss(vcfg, real.corrections, sc["gnss.antenna_lever_arm_b_m"], sc["gnss.rate_hz"],
+        params = VirtualGnssNodeParams.from_values({**from_scenario(sc), **{f"virtual_gnss.{k}": v for k, v in
+                                                                               (virtual or {}).items()}})
+        vg = VirtualGnss(params.config, params.corrections, params.lever_arm_b_m, params.rate_hz,
                          np.random.default_rng([sc["seed"], 8, rng_seed]))
+        vtopic = params.config.topic
     if case == "c":
         corrupt = UndetectedLockLoss(np.random.default_rng([sc["seed"], 6, rng_seed]))
     imu = fl.imu
     sols, j, eph_set = [], 0, None
     t0 = time.perf_counter()
     for k in range(len(imu.t_s)):
-        eng.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        new = router.handle_topic("imu/data_raw", imu_message(imu.t_s[k], imu.dt_s, imu.dtheta_b_rad[k],
+                                                              imu.dvel_b_mps[k]))[1]
         if vg is not None:
             vg.add_imu(ImuSample(imu.t_s[k], imu.dt_s, imu.dtheta_b_rad[k], imu.dvel_b_mps[k]))
+            for s in new:                                # nav/state -> the virtual node
+                vg.add_state(s.state, _pos_sigma(s, cfg))
+        sols += new
         while j < len(epochs) and epochs[j].t_s <= imu.t_s[k] + 1e-9:
             e = epochs[j]
             j += 1
             if e.ephemeris_set is not eph_set:           # gnss/ephemeris: a new set is broadcast
                 eph_set = e.ephemeris_set
-                for inp in (real, virt_in):
-                    if inp is not None:
-                        for eph in eph_set:
-                            inp.add_ephemeris(eph)
-                if vg is not None:
-                    for eph in eph_set:
+                for eph in eph_set:
+                    router.handle_topic("gnss/ephemeris", fill_gnss_ephemeris(GnssEphemeris(), eph, e.t_s))
+                    if vg is not None:
                         vg.add_ephemeris(eph)
             raw = e.raw() if corrupt is None else corrupt.epoch(e.raw())
-            real.add_raw(with_noise_floor(raw, *floor))
-            real.feed(eng)
+            router.handle_topic("gnss/raw", fill_gnss_measurements(GnssMeasurements(), raw, e.elevation_rad,
+                                                                   e.azimuth_rad, "gnss_antenna", virtual=False))
             if vg is not None:
                 if e.fix is not None:
                     vg.add_fix(e.t_s, e.fix.r_e_m, e.fix.v_e_mps)
                 vg.add_raw(raw)
         if vg is not None:
             for v in vg.ready():                        # gnss/virtual -> the fusion's virtual source
-                virt_in.add_raw(v)
-            virt_in.feed(eng)
-        new = eng.release()
-        if vg is not None:
-            for s in new:                                # nav/state -> the virtual node
-                vg.add_state(s.state, _pos_sigma(s, cfg))
-        sols += new
+                el, az = vg.geometry.pop(v.t_s)
+                router.handle_topic(vtopic, fill_gnss_measurements(GnssMeasurements(), v, el, az, "gnss_antenna"))
     sols += eng.release(final=True)
     wall = time.perf_counter() - t0
     t = np.array([s.t_s for s in sols])

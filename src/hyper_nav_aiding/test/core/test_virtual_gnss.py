@@ -9,13 +9,18 @@ import pytest
 from hyper_nav_aiding.core.virtual_gnss import VirtualGnss
 from hyper_nav_aiding.core.virtual_gnss_config import VirtualGnssConfig, VirtualGnssConfigError
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import RawPseudoranges, select_channels
+from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
+from hyper_nav_filter.core.gnss.raw_to_pseudoranges import RawPseudoranges, TightGnssInput, select_channels
 from hyper_nav_filter.core.nav_state import ImuSample
 
 
 def _core(fl, **cfg):
     c = VirtualGnssConfig.from_config({**fl.sc.data["virtual_gnss"], **cfg})
-    return VirtualGnss(c, fl.sc.tight_gnss_input().corrections, rng=np.random.default_rng(0))
+    return VirtualGnss(c, _params(fl).corrections, rng=np.random.default_rng(0))
+
+
+def _params(fl):
+    return VirtualGnssNodeParams.from_values(from_scenario(fl.sc))
 
 
 def _one(outs):
@@ -155,7 +160,8 @@ def test_virtual_ranges_from_the_fused_state_carry_no_information_about_the_vehi
     sc = fl.sc
     cfg = sc.filter_config()
     eng = FusionEngine(cfg, sc.filter_initial_state())
-    real = sc.tight_gnss_input()
+    p = _params(fl)
+    real = TightGnssInput(p.corrections, True, 0.5)           # the gnss_raw source's input
     vg = _core(fl, add_noise=False)
     for eph in fl.epochs_loss[0].ephemeris_set:
         real.add_ephemeris(eph)

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from hyper_nav_aiding.core.virtual_pseudoranges import paper_noise_sigma_m, virtual_epoch
+from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
 from hyper_nav_filter.core.gnss.ephemeris import read_rinex2_nav, satellite_position_ecef
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.gnss import broadcast_error as be
@@ -67,7 +68,7 @@ def _known_path_errors(fl):
     """Virtual epochs (noise-free) at the true antenna position and receiver
     clock of each epoch minus the receiver's pseudoranges, normalised by
     eq. 11's sigma; and the rate differences."""
-    rx = fl.sc.tight_gnss_input()
+    rx = VirtualGnssNodeParams.from_values(from_scenario(fl.sc))
     d_pr, d_rate, sig = [], [], []
     for e in fl.epochs_no_loss:
         v = virtual_epoch(e.t_s, e.t_tag_s, e.ephemerides, e.antenna_r_e_m, e.antenna_v_e_mps, e.clock_bias_m,

@@ -23,6 +23,7 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 from hyper_nav_filter.ros_util import latched_qos, run_node
 
 from ..core import simulate
+from ..gnss_messages import fill_gnss_ephemeris
 from .sensor_base import ClockDrivenSensor
 
 
@@ -94,17 +95,7 @@ class GnssNode(ClockDrivenSensor):
         return m
 
     def _eph_msg(self, eph, t_s):
-        m = self.stamp(self._eph_cls(), t_s, "")
-        m.system = 1 if eph.system == "G" else 3
-        m.prn, m.week = int(eph.prn), int(eph.week)
-        m.toe_s, m.toc_s = float(eph.toe), float(eph.toc)
-        m.sqrt_a_sqrtm, m.e, m.i0_rad, m.omega0_rad = float(eph.sqrtA), float(eph.e), float(eph.i0), float(eph.Omega0)
-        m.omega_rad, m.m0_rad, m.delta_n_radps = float(eph.omega), float(eph.M0), float(eph.delta_n)
-        m.idot_radps, m.omega_dot_radps = float(eph.idot), float(eph.OmegaDot)
-        m.cuc_rad, m.cus_rad, m.crc_m, m.crs_m = float(eph.cuc), float(eph.cus), float(eph.crc), float(eph.crs)
-        m.cic_rad, m.cis_rad = float(eph.cic), float(eph.cis)
-        m.af0_s, m.af1_sps, m.af2_sps2, m.tgd_s = float(eph.af0), float(eph.af1), float(eph.af2), float(eph.tgd)
-        return m
+        return fill_gnss_ephemeris(self._eph_cls(), eph, t_s)
 
     def _make_fix(self, i: int) -> NavSatFix:
         f = self.fixes

@@ -57,7 +57,7 @@ import numpy as np
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.gnss.propagation import hopfield_delay_m, klobuchar_delay_m
 
-from ..atmosphere import pressure_Pa
+from hyper_nav_filter.core.atmosphere import pressure_Pa
 from ..random_field import GaussianField
 from .broadcast_error import rac_frame, satellite_class
 
