@@ -127,9 +127,14 @@ class Graph:
         self._fusion_inputs = fusion_inputs(self.scenario)
 
     # ---- parameters ------------------------------------------------------------
+    def _recorded(self, topic: str) -> bool:
+        """Whether the recorder takes this topic (all of them unless its ``topics`` parameter narrows it)."""
+        wanted = self.node_params.get("recorder", {}).get("topics")
+        return bool(self.record) and (not wanted or "/" + topic.lstrip("/") in {"/" + t.lstrip("/") for t in wanted})
+
     def _subscribers(self, topics) -> int:
         """How many subscriptions the publishers of these topics must see."""
-        n = 1 if self.record else 0
+        n = 1 if any(self._recorded(t) for t in topics) else 0
         if "fusion" in self.nodes and self._fusion_inputs & set(topics):
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)

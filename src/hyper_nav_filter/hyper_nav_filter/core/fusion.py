@@ -272,28 +272,33 @@ class FusionEngine:
             h_i = t_i - self.t_latest_s
             a = (t_i - 0.5 * h_i - t0_rate) / (t1_rate - t0_rate)
             w, f = w0 + a * (w1 - w0), f0 + a * (f1 - f0)
-            self._pending_gap_Q = self._gap_Q(t_i - t_start) - self._gap_Q(t_i - h_i - t_start)
+            self._pending_gap_Q = self._gap_Q(h_i, t_s - t_start)
             self._append_epoch(ImuSample(t_i, h_i, w * h_i, f * h_i))
             self.counters["imu_bridge_epochs"] += 1
-        self._pending_gap_Q = self._gap_Q(t_s - t_start) - self._gap_Q(t_end - t_start)
+        self._pending_gap_Q = self._gap_Q(t_s - t_end, t_s - t_start)
         self.counters["imu_gaps"] += 1
         self.counters["imu_gap_total_s"] = round(self.counters["imu_gap_total_s"] + (t_s - t_start), 6)
         self.gaps.append((t_start, t_s))
 
-    def _gap_Q(self, tau: float) -> np.ndarray:
-        """Covariance of the att/vel/pos error tau seconds into a gap from a
-        constant deviation of rate (sigma_w) and specific force (sigma_a):
-        att (sigma_w tau)^2, vel (sigma_a tau)^2, pos (sigma_a tau^2 / 2)^2,
-        pos-vel sigma_a^2 tau^3 / 2."""
-        sa, sw = self.cfg.gap_accel_sigma_mps2, math.radians(self.cfg.gap_rate_sigma_deg_per_s)
+    def _gap_Q(self, h: float, gap_s: float) -> np.ndarray:
+        """Process noise of one bridge step of h seconds in a gap of gap_s:
+        white specific-force and rate deviations from the interpolation with
+        PSDs q_a = sigma_a^2 gap_s and q_w = sigma_w^2 gap_s, so that at the
+        end of the gap the velocity error sigma is sigma_a gap_s and the
+        attitude's sigma_w gap_s (the size of a constant deviation), while
+        each step's covariance is positive semi-definite (measurements may
+        arrive inside the gap): att q_w h, vel q_a h, pos q_a h^3/3,
+        pos-vel q_a h^2/2."""
+        q_a = self.cfg.gap_accel_sigma_mps2 ** 2 * gap_s
+        q_w = math.radians(self.cfg.gap_rate_sigma_deg_per_s) ** 2 * gap_s
         lay = self.cfg.layout
         Q = np.zeros((lay.dim, lay.dim))
         a, v, p = lay.sl("att"), lay.sl("vel"), lay.sl("pos")
         I3 = np.eye(3)
-        Q[a, a] = (sw * tau) ** 2 * I3
-        Q[v, v] = (sa * tau) ** 2 * I3
-        Q[p, p] = (0.5 * sa * tau * tau) ** 2 * I3
-        Q[p, v] = Q[v, p] = 0.5 * sa * sa * tau**3 * I3
+        Q[a, a] = q_w * h * I3
+        Q[v, v] = q_a * h * I3
+        Q[p, p] = q_a * h**3 / 3.0 * I3
+        Q[p, v] = Q[v, p] = q_a * h * h / 2.0 * I3
         return Q
 
     # ---- processing -----------------------------------------------------------------
