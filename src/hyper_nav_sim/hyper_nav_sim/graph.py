@@ -39,7 +39,7 @@ from ament_index_python.packages import get_package_prefix
 
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
 
-from .core.scenario import Scenario, ScenarioError, load_scenario, validate
+from .core.scenario import Scenario, ScenarioError, check_override_key, known_fields, load_scenario, validate
 
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
@@ -68,12 +68,17 @@ def apply_overrides(sc: Scenario, overrides: dict | None, workdir: pathlib.Path)
     """A copy of the scenario with dotted-field overrides, validated and
     written to workdir so that every node reads the same file."""
     data = copy.deepcopy(sc.data)
+    tree = known_fields()
     for dotted, value in (overrides or {}).items():
+        check_override_key(dotted, tree)
         cur = data
         parts = dotted.split(".")
         for part in parts[:-1]:
             cur = cur.setdefault(part, {})
-        cur[parts[-1]] = value
+        if value is None:                  # --set maneuvers=null removes the field
+            cur.pop(parts[-1], None)
+        else:
+            cur[parts[-1]] = value
     path = workdir / f"{data['name']}.yaml"
     data = validate(data, str(path))
     path.write_text(yaml.safe_dump(data, sort_keys=False))

@@ -69,7 +69,7 @@ def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,
     lat1 = lat + v_mid[1] / (r_m + alt_mid) * dt
     lat_mid = 0.5 * (lat + lat1)
     _, r_n = earth.radii(lat_mid)
-    lon1 = lon + v_mid[0] / ((r_n + alt_mid) * np.cos(lat_mid)) * dt
+    lon1 = earth.wrap_lon_rad(float(lon + v_mid[0] / ((r_n + alt_mid) * np.cos(lat_mid)) * dt))
     # --- attitude: body rotation with coning, nav-frame rotation at mid-interval
     phi_b = coning_rotation_vector(dth, dth_p)
     zeta = (earth.omega_ie_n(lat_mid) + earth.omega_en_n(lat_mid, alt_mid, v_mid)) * dt

@@ -51,6 +51,8 @@ from scipy.signal import lfilter
 
 from hyper_nav_filter.core import units
 
+from .fields import unknown_field
+
 ARCSEC = units.DEG / 3600.0
 FLICKER_FLOOR = float(np.sqrt(2.0 * np.log(2.0) / np.pi))   # 0.6643, IEEE 952
 _BI_PER_DECADE = 2
@@ -129,7 +131,7 @@ class ImuErrors:
             raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
         for k in d:
             if k not in CONFIG_FIELDS and k not in IGNORED_FIELDS:
-                raise ValueError(f"{prefix}.{k}: unknown field (known: {sorted(CONFIG_FIELDS)})")
+                raise ValueError(unknown_field(f"{prefix}.", k, set(CONFIG_FIELDS) | IGNORED_FIELDS))
         for a, b in (("gyro_misalignment_arcsec", "gyro_misalignment_mrad"),
                      ("accel_misalignment_arcsec", "accel_misalignment_mrad")):
             if a in d and b in d:
