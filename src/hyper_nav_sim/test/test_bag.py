@@ -151,7 +151,7 @@ def test_flushed_messages_survive_a_crash(tmp_path):
         writer.write("/imu", IMU, T0 + i, bag.serialize(imu(i), IMU))
         if i == 99:
             writer.flush()
-    writer._writer.abort()  # like a killed recorder: file closed, no summary, no metadata.yaml
+    writer.abort()  # like a killed recorder: file closed, no summary, no metadata.yaml
     reader = bag.read_bag(path)
     records = list(reader)
     assert reader.truncated and "footer" in reader.error

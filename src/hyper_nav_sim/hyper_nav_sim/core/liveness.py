@@ -1,0 +1,169 @@
+"""Liveness of a node graph from what its nodes say on ``/diagnostics``.
+
+Every node publishes a status every ``diagnostics_period_s`` of wall time with
+a ``heartbeat`` counter and its message counters: a producer's ``published
+<topic>``, a consumer's ``received <topic>`` (the fusion node). From those,
+and the sim time of ``/clock``, this core decides for each expected node and
+each expected stream whether it is alive:
+
+* node: ERROR when no status came for ``heartbeat_timeout_s`` of wall time
+  (killed, crashed, hung) or none at all within ``startup_timeout_s``; OK
+  after a status with ``finished: true`` (it ended by itself).
+* stream: WARN (ERROR for a critical stream such as the IMU) when its count
+  did not advance over ``timeout_s`` of sim time, or when every node that
+  reported it went silent (its producer and consumer died). The count is taken where
+  the data is used, at the live consumers that report ``received <topic>``,
+  else at the live producers (``published <topic>``). Silence is measured
+  between the consumer's own reports (the sim time at which a report showed
+  the count advancing, and the sim time of its latest report), so it is not
+  quantised by the 1 s wall period of the reports; only sim time up to the
+  scenario end (``end_s``) counts, since every stream stops there.
+
+Pure Python, no rclpy: ``nodes/monitor.py`` feeds it and publishes its
+verdicts; the unit tests drive it with synthetic statuses.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+OK, WARN, ERROR, STALE = "ok", "warn", "error", "stale"
+
+
+@dataclass(frozen=True)
+class StreamSpec:
+    topic: str
+    timeout_s: float          # sim seconds without progress before the stream is missing
+    critical: bool = False    # ERROR instead of WARN (no IMU: nothing to navigate with)
+
+
+@dataclass(frozen=True)
+class LivenessConfig:
+    nodes: tuple[str, ...]              # node names (DiagnosticStatus.hardware_id)
+    streams: tuple[StreamSpec, ...]
+    heartbeat_timeout_s: float = 5.0    # wall
+    startup_timeout_s: float = 60.0     # wall
+    end_s: float = math.inf             # sim time at which the streams end
+
+
+@dataclass(frozen=True)
+class Verdict:
+    name: str                 # "node gnss", "stream imu/data_raw"
+    level: str                # ok / warn / error / stale
+    message: str
+    since_s: float | None = None      # sim time the fault began (None: no fault)
+
+
+@dataclass
+class _Source:
+    node: str
+    kind: str                 # "received" (consumer) or "published" (producer)
+    count: int = -1
+    t_increase_s: float | None = None
+    t_report_s: float | None = None
+
+
+@dataclass
+class _Node:
+    last_wall_s: float | None = None
+    last_sim_s: float | None = None
+    finished: bool = False
+    statuses: int = 0
+
+
+@dataclass
+class LivenessMonitor:
+    cfg: LivenessConfig
+    start_wall_s: float
+    sim_s: float | None = None
+    start_sim_s: float | None = None
+    _nodes: dict = field(default_factory=dict)
+    _sources: dict = field(default_factory=dict)      # topic -> {(node, kind): _Source}
+
+    def __post_init__(self):
+        self._nodes = {n: _Node() for n in self.cfg.nodes}
+        self._sources = {s.topic: {} for s in self.cfg.streams}
+
+    # ---- inputs ---------------------------------------------------------------
+    def on_clock(self, sim_s: float) -> None:
+        if self.start_sim_s is None:
+            self.start_sim_s = sim_s
+        self.sim_s = sim_s if self.sim_s is None else max(self.sim_s, sim_s)
+
+    def on_status(self, node: str, values: dict, wall_s: float) -> None:
+        """One DiagnosticStatus of ``node`` (its key/value pairs as strings)."""
+        st = self._nodes.setdefault(node, _Node())
+        st.last_wall_s, st.last_sim_s, st.statuses = wall_s, self.sim_s, st.statuses + 1
+        st.finished = st.finished or str(values.get("finished", "")).lower() == "true"
+        if self.sim_s is None:
+            return
+        for key, value in values.items():
+            kind, _, topic = str(key).partition(" ")
+            topic = topic.lstrip("/")
+            if kind not in ("received", "published") or topic not in self._sources:
+                continue
+            try:
+                count = int(value)
+            except ValueError:
+                continue
+            src = self._sources[topic].setdefault((node, kind), _Source(node, kind))
+            if src.t_increase_s is None:          # first report: nothing yet, or some since the start
+                src.t_increase_s = self.start_sim_s if count <= 0 else self.sim_s
+                src.count = count
+            elif count > src.count:
+                src.t_increase_s, src.count = self.sim_s, count
+            src.t_report_s = self.sim_s
+
+    # ---- verdicts -------------------------------------------------------------
+    def alive(self, node: str, wall_s: float) -> bool:
+        st = self._nodes.get(node)
+        return st is not None and st.last_wall_s is not None and \
+            (st.finished or wall_s - st.last_wall_s <= self.cfg.heartbeat_timeout_s)
+
+    def node_verdict(self, node: str, wall_s: float) -> Verdict:
+        st = self._nodes.get(node, _Node())
+        name = f"node {node}"
+        if st.last_wall_s is None:
+            waited = wall_s - self.start_wall_s
+            if waited > self.cfg.startup_timeout_s:
+                return Verdict(name, ERROR, f"never started: no status within {waited:.0f} s", self.start_sim_s)
+            return Verdict(name, STALE, "waiting for its first status")
+        if st.finished:
+            return Verdict(name, OK, "finished")
+        silent = wall_s - st.last_wall_s
+        if silent > self.cfg.heartbeat_timeout_s:
+            at = "" if st.last_sim_s is None else f", last at t = {st.last_sim_s:.1f} s"
+            return Verdict(name, ERROR, f"dead: no heartbeat for {silent:.1f} s{at}", st.last_sim_s)
+        return Verdict(name, OK, "alive")
+
+    def stream_verdict(self, spec: StreamSpec, wall_s: float) -> Verdict:
+        name = f"stream {spec.topic}"
+        bad = ERROR if spec.critical else WARN
+        if self.sim_s is None:
+            return Verdict(name, STALE, "waiting for /clock")
+        sources = self._sources[spec.topic].values()
+        live = [s for s in sources if s.kind == "received" and self.alive(s.node, wall_s)] or \
+            [s for s in sources if s.kind == "published" and self.alive(s.node, wall_s)]
+        if not live:
+            if sources:                      # every node that reported it went silent
+                last = max(s.t_report_s for s in sources)
+                dead = ", ".join(sorted({s.node for s in sources}))
+                return Verdict(name, bad, f"lost: {dead} reported it until t = {last:.1f} s and went silent",
+                               last)
+            if wall_s - self.start_wall_s > self.cfg.startup_timeout_s:
+                return Verdict(name, bad, "no node has reported it", self.start_sim_s)
+            return Verdict(name, STALE, "no node reports it yet")
+        def silence(s):
+            return min(s.t_report_s, self.cfg.end_s) - s.t_increase_s
+        worst = max(live, key=silence)
+        silent = silence(worst)
+        where = "received at" if worst.kind == "received" else "published by"
+        if silent > spec.timeout_s:
+            return Verdict(name, bad, f"missing: nothing {where} {worst.node} for {silent:.1f} s "
+                                      f"(since t = {worst.t_increase_s:.1f} s)", worst.t_increase_s)
+        return Verdict(name, OK, f"{worst.count} {where.split()[0]} ({where} {worst.node})")
+
+    def evaluate(self, wall_s: float) -> list[Verdict]:
+        """Every node and stream verdict, nodes first."""
+        return [self.node_verdict(n, wall_s) for n in self.cfg.nodes] + \
+            [self.stream_verdict(s, wall_s) for s in self.cfg.streams]
