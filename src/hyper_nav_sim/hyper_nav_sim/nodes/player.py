@@ -138,6 +138,7 @@ class Player(Node):
     def play(self) -> None:
         """Publish every readable message, paced by log time / rate."""
         t0, wall0 = None, time.monotonic()
+        self.get_logger().info(f"replaying {len(self.pubs)} topics at {self.rate}x")
         for record in self.reader:
             if not rclpy.ok(context=self.context):
                 break
@@ -155,6 +156,7 @@ class Player(Node):
             if self.replayed % self.ack_every == 0:
                 self.wait_acked()
         if rclpy.ok(context=self.context):
+            self.get_logger().info(f"replayed {self.replayed} messages; waiting for acknowledgements")
             self.wait_acked()  # deliver the tail before the process exits
 
     def report(self) -> None:
