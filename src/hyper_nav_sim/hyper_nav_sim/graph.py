@@ -398,7 +398,7 @@ class Graph:
         for name in others:
             self._reap(name)
         if "recorder" in self.procs and self.procs["recorder"].poll() is None:
-            time.sleep(1.0)
+            time.sleep(0.2)                       # the recorder then drains until quiet (drain_quiet_s)
             self._interrupt("recorder")
             self._reap("recorder")
         self._write_run_files()

@@ -257,7 +257,8 @@ def _score(nav_states: dict, truth_states: dict, sc, out: run_check.Outcome, end
     skip, note = effective_skip_s(sc["report.skip_s"], end_s)
     if note:
         out.warnings.append(note)
-    run_check.epoch_check(nav_states["t"], _expected(sc, skip, end_s), out)
+    # every solution epoch of the run must be there (a gap before the accuracy window is lost data too)
+    run_check.epoch_check(nav_states["t"], _expected(sc, 0.0, end_s), out)
     try:
         err = errors(nav_states, truth_states)
         summary = summarize(err, skip)
@@ -300,11 +301,12 @@ def _report(argv) -> int:
     rows = run_check.delivery_rows(run["by_node"], run["counts"], out, dead)
     if not rg.get("interrupted"):
         run_check.schedule_rows(run["by_node"], out)
+    run_check.input_truncated(run["by_node"], out)
     fusion = run["by_node"].get(run_check.FUSION_NODE, {})
     run_check.rejected_inputs(fusion, out)
     run_check.status_faults(run["timeline"], out, exits)
     ep = out.details["epochs"]
-    print(f"epochs: {ep['scored']} of {ep['expected']} expected solution epochs scored")
+    print(f"epochs: {ep['scored']} of {ep['expected']} expected solution epochs (with truth) published")
     print(f"delivery: {len(rows)} topics checked: " + ", ".join(
         f"{t} {r.get('published', '-')}/{r['recorded']}" + "".join(
             f"/{v}" for k, v in sorted(r.items()) if k.startswith(("received_by", "processed_by")))

@@ -14,10 +14,13 @@ each expected stream whether it is alive:
   reported it went silent (its producer and consumer died). The count is taken where
   the data is used, at the live consumers that report ``received <topic>``,
   else at the live producers (``published <topic>``). Silence is measured
-  between the consumer's own reports (the sim time at which a report showed
-  the count advancing, and the sim time of its latest report), so it is not
-  quantised by the 1 s wall period of the reports; only sim time up to the
-  scenario end (``end_s``) counts, since every stream stops there.
+  between the reporter's own reports: from the stamp of the last message
+  when the reporter gives it (``last <topic>``, sensors and player), else
+  from the report at which the count last advanced, to its latest report, on
+  the reporter's own sim time when it says it (``sim_time_s``) or the
+  monitor's /clock otherwise, so neither the wall period of the reports nor a
+  late /clock subscription blurs it; only sim time up to the scenario end
+  (``end_s``) counts, since every stream stops there.
 
 Pure Python, no rclpy: ``nodes/monitor.py`` feeds it and publishes its
 verdicts; the unit tests drive it with synthetic statuses.
@@ -61,6 +64,7 @@ class _Source:
     count: int = -1
     t_increase_s: float | None = None
     t_report_s: float | None = None
+    t_last_stamp_s: float | None = None     # stamp of the last message, when reported
 
 
 @dataclass
@@ -93,26 +97,43 @@ class LivenessMonitor:
     def on_status(self, node: str, values: dict, wall_s: float) -> None:
         """One DiagnosticStatus of ``node`` (its key/value pairs as strings)."""
         st = self._nodes.setdefault(node, _Node())
-        st.last_wall_s, st.last_sim_s, st.statuses = wall_s, self.sim_s, st.statuses + 1
+        try:
+            own_sim = float(values.get("sim_time_s") or "nan")
+        except ValueError:
+            own_sim = float("nan")
+        if own_sim == own_sim:                     # the reporter's own sim time advances ours too
+            self.on_clock(own_sim)
+        now = own_sim if own_sim == own_sim else self.sim_s
+        st.last_wall_s, st.last_sim_s, st.statuses = wall_s, now, st.statuses + 1
         st.finished = st.finished or str(values.get("finished", "")).lower() == "true"
-        if self.sim_s is None:
+        if now is None:
             return
+        stamps = {}
         for key, value in values.items():
             kind, _, topic = str(key).partition(" ")
             topic = topic.lstrip("/")
-            if kind not in ("received", "published") or topic not in self._sources:
+            if topic not in self._sources:
                 continue
             try:
+                if kind == "last":
+                    stamps[topic] = float(value)
+                    continue
+                if kind not in ("received", "published"):
+                    continue
                 count = int(value)
             except ValueError:
                 continue
             src = self._sources[topic].setdefault((node, kind), _Source(node, kind))
             if src.t_increase_s is None:          # first report: nothing yet, or some since the start
-                src.t_increase_s = self.start_sim_s if count <= 0 else self.sim_s
+                src.t_increase_s = self.start_sim_s if count <= 0 else now
                 src.count = count
             elif count > src.count:
-                src.t_increase_s, src.count = self.sim_s, count
-            src.t_report_s = self.sim_s
+                src.t_increase_s, src.count = now, count
+            src.t_report_s = now
+        for topic, t in stamps.items():
+            src = self._sources[topic].get((node, "published"))
+            if src is not None:
+                src.t_last_stamp_s = t
 
     # ---- verdicts -------------------------------------------------------------
     def alive(self, node: str, wall_s: float) -> bool:
@@ -153,14 +174,19 @@ class LivenessMonitor:
             if wall_s - self.start_wall_s > self.cfg.startup_timeout_s:
                 return Verdict(name, bad, "no node has reported it", self.start_sim_s)
             return Verdict(name, STALE, "no node reports it yet")
+        def since(s):
+            if s.t_last_stamp_s is not None:
+                return s.t_last_stamp_s
+            return s.t_increase_s
+
         def silence(s):
-            return min(s.t_report_s, self.cfg.end_s) - s.t_increase_s
+            return min(s.t_report_s, self.cfg.end_s) - since(s)
         worst = max(live, key=silence)
         silent = silence(worst)
         where = "received at" if worst.kind == "received" else "published by"
         if silent > spec.timeout_s:
             return Verdict(name, bad, f"missing: nothing {where} {worst.node} for {silent:.1f} s "
-                                      f"(since t = {worst.t_increase_s:.1f} s)", worst.t_increase_s)
+                                      f"(since t = {since(worst):.1f} s)", since(worst))
         return Verdict(name, OK, f"{worst.count} {where.split()[0]} ({where} {worst.node})")
 
     def evaluate(self, wall_s: float) -> list[Verdict]:

@@ -2,10 +2,11 @@
 
 A run passes only if nothing was lost and nothing stopped:
 
-* ``epoch_check``: every solution epoch the scenario promises after
-  ``report.skip_s`` was scored against truth (the filter releases the first
-  IMU epoch at or after each multiple of 1/output_rate_hz, exactly as
-  ``FusionEngine.release`` does), with the missing ones grouped into gaps;
+* ``epoch_check``: every solution epoch the scenario promises (the filter
+  releases the first IMU epoch at or after each multiple of
+  1/output_rate_hz, exactly as ``FusionEngine.release`` does; those with a
+  truth epoch) is in the run, from the start (a gap before the accuracy
+  window is lost data too), with the missing ones grouped into gaps;
 * ``delivery_rows``: per topic, what its publisher counted, what the bag
   holds, and, for the fusion node's inputs, what fusion received and
   processed (``received <topic>``, ``processed <topic>`` on its status);
@@ -90,7 +91,7 @@ def epoch_check(scored_t_s, expected_t_s, out: Outcome, max_gaps: int = 5) -> di
         worst = sorted(gaps, key=lambda g: -g[2])[:max_gaps]
         text = ", ".join(f"{a:.2f}-{b:.2f} s ({n})" for a, b, n in worst)
         more = f" and {len(gaps) - max_gaps} more" if len(gaps) > max_gaps else ""
-        out.failures.append(f"epochs: {d['scored']} of {d['expected']} expected solution epochs scored; "
+        out.failures.append(f"epochs: {d['scored']} of {d['expected']} expected solution epochs present; "
                             f"{d['missing']} missing in {len(gaps)} gap(s): {text}{more}")
     out.details["epochs"] = d
     return d
@@ -169,6 +170,14 @@ def schedule_rows(last_values: dict, out: Outcome) -> dict:
                                         f"of its scenario (stopped early)")
     out.details["schedule"] = rows
     return rows
+
+
+def input_truncated(last_values: dict, out: Outcome) -> None:
+    """A player that replayed a truncated bag says so (``truncated: yes``):
+    the run did not see all of its input."""
+    for node, values in last_values.items():
+        if str(values.get("truncated", "")).lower() == "yes":
+            out.failures.append(f"bag: {node} replayed a truncated bag: {values.get('bag_error', '')}")
 
 
 # ---- /diagnostics timeline -------------------------------------------------------------

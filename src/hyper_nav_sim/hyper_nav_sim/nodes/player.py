@@ -23,7 +23,8 @@ still reaches a late subscriber); topics recorded without profiles are
 reliable and volatile.
 
 Status on /diagnostics ("hyper_nav_sim: player"): ``published <topic>``,
-``heartbeat``, the bag's ``truncated`` flag (WARN when truncated) and a last
+``last <topic>`` and ``sim_time_s`` (log times, sim time for a bag recorded
+by run_graph), ``heartbeat``, the bag's ``truncated`` flag (WARN when truncated) and a last
 status with ``finished: true``.
 
 A truncated bag is replayed as far as it is readable, with a warning. A bag
@@ -87,6 +88,9 @@ class Player(Node):
         self.clock_pub = self.create_publisher(Clock, "/clock", recorded_qos(None, depth)) if publish_clock else None
         self.replayed = 0
         self.published = {t.lstrip("/"): 0 for t in self.pubs}
+        self.last_s: dict[str, float] = {}
+        self.now_s = None
+        self._waiting = None       # (log time s of the next record, wall time s it is due)
         self.status = NodeStatus(self, "hyper_nav_sim: player")
         self._next_status = 0.0
 
@@ -109,10 +113,12 @@ class Player(Node):
             time.sleep(0.05)
         return True
 
-    def sleep_until(self, wall_s: float) -> None:
+    def sleep_until(self, wall_s: float, next_log_s: float | None = None) -> None:
+        self._waiting = None if next_log_s is None else (next_log_s, wall_s)
         while rclpy.ok(context=self.context) and (left := wall_s - time.monotonic()) > 0:
             self.publish_status()
             time.sleep(min(left, 0.1))
+        self._waiting = None
 
     def publish_status(self, finished: bool = False) -> None:
         """Status every diagnostics_period_s of wall time (the player does not
@@ -123,6 +129,12 @@ class Player(Node):
         self._next_status = now + self.diag_period_s
         truncated = bool(self.reader.truncated)
         values = {f"published {t}": n for t, n in self.published.items()}
+        values.update({f"last {t}": f"{s:.3f}" for t, s in self.last_s.items()})
+        if self._waiting is not None and not finished:      # the replayed clock runs on in a hole
+            t_next, due = self._waiting
+            self.now_s = max(self.now_s or 0.0, t_next - (due - now) * self.rate)
+        if self.now_s is not None:
+            values["sim_time_s"] = f"{self.now_s:.3f}"
         values["truncated"] = "yes" if truncated else "no"
         if truncated:
             values["bag_error"] = self.reader.error
@@ -146,12 +158,13 @@ class Player(Node):
                 continue
             t0 = record.t_ns if t0 is None else t0
             if self.rate > 0:
-                self.sleep_until(wall0 + (record.t_ns - t0) * 1e-9 / self.rate)
+                self.sleep_until(wall0 + (record.t_ns - t0) * 1e-9 / self.rate, record.t_ns * 1e-9)
             if self.clock_pub is not None:
                 self.clock_pub.publish(Clock(clock=Time(nanoseconds=record.t_ns).to_msg()))
             self.pubs[record.topic].publish(record.raw)
             self.replayed += 1
             self.published[record.topic.lstrip("/")] += 1
+            self.now_s = self.last_s[record.topic.lstrip("/")] = record.t_ns * 1e-9
             self.publish_status()
             if self.replayed % self.ack_every == 0:
                 self.wait_acked()
@@ -166,7 +179,7 @@ class Player(Node):
         self.get_logger().info(f"replayed {self.replayed} messages (truncated: {truncated})")
         if rclpy.ok(context=self.context):
             self.publish_status(finished=True)
-            self.status.pub.wait_for_all_acked(Duration(seconds=2.0))
+            self.status.pub.wait_for_all_acked(Duration(seconds=0.5))
 
 
 def recorded_qos(profiles, depth: int) -> QoSProfile:

@@ -8,8 +8,9 @@ has been reached. ``header.stamp`` is always the measurement epoch.
 
 Its ``/diagnostics`` status (every ``diagnostics_period_s`` of wall time,
 from ``graph.diagnostics_period_s``) carries ``heartbeat``, ``scheduled
-<topic>`` (the node's whole stream) and ``published <topic>``, so the
-liveness monitor and the report see a stream that stopped early.
+<topic>`` (the node's whole stream), ``published <topic>``, ``last <topic>``
+(stamp of the last message) and ``sim_time_s``, so the liveness monitor and
+the report see a stream that stopped early, and when.
 """
 from __future__ import annotations
 
@@ -34,6 +35,8 @@ class ClockDrivenSensor(Node):
         self.status = NodeStatus(self, f"hyper_nav_sim: {name}")
         self.published = {}
         self.scheduled = {}
+        self.last_stamp = {}
+        self.sim_time_s = None
         self._queue = []        # list of (release_t_s, epoch_t_s, topic, make_msg)
         self._next = 0
         self._done_reported = False
@@ -68,11 +71,13 @@ class ClockDrivenSensor(Node):
 
     def _on_clock(self, msg: Clock):
         now = stamp_to_s(msg.clock)
+        self.sim_time_s = now
         while self._next < len(self._queue) and self._queue[self._next][0] <= now + 1e-9:
             _, t, pub, make_msg, i = self._queue[self._next]
             pub.publish(make_msg(i))
             name = pub.topic_name.lstrip("/")
             self.published[name] = self.published.get(name, 0) + 1
+            self.last_stamp[name] = t
             self._next += 1
         if self._next == len(self._queue) and self._queue and not self._done_reported:
             self._done_reported = True          # the whole stream is out: say so at once
@@ -85,7 +90,10 @@ class ClockDrivenSensor(Node):
     def publish_diagnostics(self):
         values = {f"published {k}": v for k, v in self.published.items()}
         values.update({f"scheduled {k}": v for k, v in self.scheduled.items()})
+        values.update({f"last {k}": f"{t:.3f}" for k, t in self.last_stamp.items()})
         values["queued"] = len(self._queue)
+        if self.sim_time_s is not None:
+            values["sim_time_s"] = f"{self.sim_time_s:.3f}"
         self.status.publish("ok", "done" if self._next == len(self._queue) else "running", values)
 
     @staticmethod

@@ -117,3 +117,16 @@ def test_node_never_started():
     assert m.node_verdict("imu", 59.0).level == STALE
     v = m.node_verdict("imu", 61.0)
     assert v.level == ERROR and "never started" in v.message
+
+
+def test_stamps_and_own_sim_time_make_silence_exact():
+    """A producer that reports the stamp of its last message and its own sim
+    time: the silence is exact even with sparse reports and no /clock."""
+    m = LivenessMonitor(LivenessConfig(("player",), (StreamSpec("gnss/fix", 3.0),)), 0.0)
+    m.on_status("player", {"published gnss/fix": "21", "last gnss/fix": "2.000", "sim_time_s": "2.1"}, 1.0)
+    m.on_status("player", {"published gnss/fix": "100", "last gnss/fix": "9.900", "sim_time_s": "10.0"}, 2.0)
+    assert m.stream_verdict(m.cfg.streams[0], 2.5).level == OK
+    m.on_status("player", {"published gnss/fix": "101", "last gnss/fix": "10.000", "sim_time_s": "18.9"}, 3.0)
+    v = m.stream_verdict(m.cfg.streams[0], 3.5)
+    assert v.level == WARN and v.since_s == 10.0 and "for 8.9 s (since t = 10.0 s)" in v.message
+    assert m.sim_s == 18.9                                          # from the status, without /clock
