@@ -199,3 +199,34 @@ def test_unreadable_and_truncated_bags(tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"FAIL: bag: truncated: {mcap}" in out
     assert "accuracy after t >= 2 s" in out and "VERDICT: FAIL" in out
+
+
+def test_flight_across_180_deg_in_2022(tmp_path):
+    """Due east from 179.95E (across 180 deg at t ~ 3 s), magnetometer date
+    2022.5 (WMM-2020): every longitude on every topic in [-180, 180), the
+    GNSS updates after the crossing accepted (none gated), the report passes
+    with metre-level errors, exit 0."""
+    from faults import nav_longitudes_deg
+    from hyper_nav_sim.core import wmm
+    from hyper_nav_sim.core.bag import deserialize, read_bag
+    bag = tmp_path / "bag"
+    rg = RunGraph(tmp_path, "--set", "duration_s=16", "--set", "start.lon_deg=179.95",
+                  "--set", "start.vel_enu_mps=[1700.0, 0.0, 0.0]", "--set", "magnetometer.epoch_decimal_year=2022.5",
+                  "--set", "report.skip_s=5", "--record", str(bag), "--report")
+    code = rg.wait()
+    lons = nav_longitudes_deg(bag)
+    for topic in ("truth/state", "gnss/fix", "nav/state", "nav/fix"):
+        lon = lons[topic]
+        assert np.all((lon >= -180.0) & (lon < 180.0)), (topic, lon.min(), lon.max())
+        assert lon.max() > 179.95 - 1e-3 and lon.min() < -179.8, (topic, lon.min(), lon.max())   # crossed
+    rep = report_json(bag)
+    fusion = rep["fusion_diagnostics"]
+    assert int(fusion["gnss_pos_accepted"]) >= 150 and int(fusion["gnss_pos_gated"]) == 0, fusion
+    assert rep["summary"]["pos_enu_m"]["rms_3d"] < 5.0                      # not 4e7 m
+    assert code == 0 and rep["verdict"] == "PASS", (rep["failures"], rg.output())
+    mags = [deserialize(r.raw, r.msgtype) for r in read_bag(bag) if r.topic == "/imu/mag"]
+    assert len(mags) == 161
+    b_nT = np.linalg.norm([[m.magnetic_field.x, m.magnetic_field.y, m.magnetic_field.z] for m in mags], axis=1) * 1e9
+    tr = [deserialize(r.raw, r.msgtype) for r in read_bag(bag) if r.topic == "/truth/state"][0]
+    ref = np.linalg.norm(wmm.field_enu_nT(tr.lat_rad, tr.lon_rad, tr.alt_m, 2022.5))
+    assert abs(b_nT[0] - ref) < 30.0, (b_nT[0], ref)                         # WMM-2020 at the start, 5 nT noise

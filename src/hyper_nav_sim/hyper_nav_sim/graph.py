@@ -273,12 +273,13 @@ class Graph:
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}
         elif name == "player":
-            waits = {t: self._subscribers([t]) for t in self._replay_topics}
-            waits.update({t: max(waits.get(t, 0), n) for t, n in self._waits().items()})
-            p = {"bag": str(self.replay), "rate": float(self.scenario["graph.real_time_factor"]),
-                 "topics": list(self._replay_topics), "wait_topics": list(waits),
-                 "wait_counts": list(waits.values()), "wait_timeout_s": 60.0,
-                 "qos_depth": int(self.scenario["graph.qos_depth"]), "diagnostics_period_s": diag}
+            p = {"qos_depth": int(self.scenario["graph.qos_depth"]), "diagnostics_period_s": diag}
+            if self.replay:
+                waits = {t: self._subscribers([t]) for t in self._replay_topics}
+                waits.update({t: max(waits.get(t, 0), n) for t, n in self._waits().items()})
+                p.update({"bag": str(self.replay), "rate": float(self.scenario["graph.real_time_factor"]),
+                          "topics": list(self._replay_topics), "wait_topics": list(waits),
+                          "wait_counts": list(waits.values()), "wait_timeout_s": 60.0})
         elif name == "monitor":
             rates = stream_rates_hz(self.scenario)
             streams = self.streams()
