@@ -164,16 +164,17 @@ def describe_exit(returncode: int) -> str:
 
 
 class Graph:
-    def __init__(self, scenario: str | Scenario = "default", record: str | os.PathLike | None = None,
+    def __init__(self, scenario: str | Scenario | None = None, record: str | os.PathLike | None = None,
                  nodes=None, overrides: dict | None = None,
                  extra_subscribers: dict[str, int] | None = None, node_params: dict | None = None,
                  log_dir: str | os.PathLike | None = None, domain_id: int | None = None,
                  replay: str | os.PathLike | None = None, monitor: bool = True,
                  on_node_death: str = "raise"):
-        """``replay``: a bag to play into the graph instead of the simulator
-        (nodes default to player + fusion; the bag's ``scenario.yaml`` is the
-        default scenario). ``on_node_death``: "raise" (NodeDied from
-        wait_until_done) or "continue" (keep flying, see ``exits``)."""
+        """``scenario``: a name, path or Scenario (default: "default", or the
+        replayed bag's ``scenario.yaml``). ``replay``: a bag to play into the
+        graph instead of the simulator (nodes default to player + fusion).
+        ``on_node_death``: "raise" (NodeDied from wait_until_done) or
+        "continue" (keep flying, see ``exits``)."""
         if on_node_death not in ("raise", "continue"):
             raise ValueError(f"on_node_death: 'raise' or 'continue', got {on_node_death!r}")
         self.replay = pathlib.Path(replay) if replay else None
@@ -194,7 +195,7 @@ class Graph:
         for name in self.nodes:
             executable(name)                     # unknown names fail here, with a suggestion
         if self.replay and "player" not in self.nodes:
-            raise ValueError("replay needs the player node")
+            raise ScenarioError("--replay needs the player node in --nodes")
         self.monitor = monitor
         self.on_node_death = on_node_death
         self.extra = dict(extra_subscribers or {})
