@@ -331,10 +331,9 @@ def _replay(argv) -> int:
         raise ReportError(f"{args.bag}: no such bag")
     sc = _scenario(args)
     reader = read_bag(args.bag)
-    tight = sc.tight_gnss_input() if sc["filter.gnss_mode"] == "tight" else None
-    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader
-               if r.topic.lstrip("/") in ("imu/data_raw", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris",
-                                          "truth/state")]
+    from .graph import fusion_inputs
+    inputs = fusion_inputs(sc) | {"truth/state"}
+    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader if r.topic.lstrip("/") in inputs]
     out = run_check.Outcome()
     if not records:
         raise ReportError(f"{args.bag}: no readable sensor messages" + (f" ({reader.error})" if reader.error else ""))
@@ -342,7 +341,7 @@ def _replay(argv) -> int:
         print(f"[replay_filter] WARNING: bag is truncated ({reader.error}); replaying what was readable")
         out.failures.append(f"bag: truncated: {reader.error}")
     # final: at the end of the bag every solution is released (as the live node does at shutdown)
-    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), tight=tight,
+    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sources=sc.filter_sources(),
                             final=True, keep_history=args.smooth)
     truth = states_from_msgs([m for t, m in records if t.lstrip("/") == "truth/state"])
     _, summary = _score(states_from_solutions(sols), truth, sc, out)

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
+from hyper_nav_filter.core.atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
+
 from .fields import unknown_field
 
 CONFIG_FIELDS = frozenset({"pressure_noise_rel_ppm", "pressure_noise_pa", "pressure_bias_pa", "max_alt_m"})

@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import check_gnss_mode, tight_gnss_input
+from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
 from .fields import suggestion, unknown_field
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
@@ -90,10 +90,6 @@ SCHEMA = {
     "filter.initial_error.pos_enu_m": (vec(3), True, None),
     "filter.initial_error.vel_enu_mps": (vec(3), True, None),
     "filter.initial_error.att_enu_arcmin": (vec(3), True, None),
-    # GNSS coupling of the fusion node: "loose" (gnss/fix + gnss/vel) or "tight"
-    # (pseudoranges from gnss/raw + gnss/ephemeris; needs gnss.raw and the clk block)
-    "filter.gnss_mode": (STR, False, "loose"),
-    "filter.gnss_use_pseudorange_rates": (BOOL, False, False),
     "report.skip_s": (NUM, False, 30.0),
     "report.max_pos_rms_m": (NUM, False, None),
     "report.max_vel_rms_mps": (NUM, False, None),
@@ -113,9 +109,9 @@ NON_NEGATIVE = {"gnss.latency_s", "report.skip_s", "magnetometer.noise_nT", "imu
                 "imu.accel_vrw_ug_per_sqrt_hz"}
 RANGES = {"start.lat_deg": (-90.0, 90.0, "within (-90, 90)"), "start.lon_deg": (-180.0, 180.0, "within [-180, 180]")}
 MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
-# blocks whose nested content their own parser checks key by key (boost_glide_config)
-# or whose keys are data (gnss.raw.lock.sat_outages: satellite ids)
-OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages"}
+# blocks whose nested content their own parser checks key by key (boost_glide_config,
+# hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids)
+OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources"}   # filter.sources: sources.parse_sources
 
 
 def known_fields() -> dict[str, frozenset]:
@@ -139,8 +135,8 @@ def known_fields() -> dict[str, frozenset]:
     tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
     tree["gnss.raw.lock"] = set(receiver._LOCK_FIELDS)
     tree["magnetometer"] |= set(MAG_FIELDS)
-    tree["filter"] |= {"config"}
-    tree["filter.config"] = {f.name for f in fields(FilterConfig) if f.init}
+    tree["filter"] |= {"config", "sources"}
+    tree["filter.config"] = {f.name for f in fields(FilterConfig) if f.init}   # the filter's declarations
     tree["lever_arm"] = set(LEVER_ARM_FIELDS)
     tree["barometer"] = set(BARO_FIELDS) | {"rate_hz"}
     tree["radar"] = {f.name for f in fields(EarlyWarningRadar)}
@@ -303,21 +299,17 @@ class Scenario:
     def filter_config(self) -> FilterConfig:
         return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
 
-    def tight_gnss_parameters(self) -> dict:
-        """The fusion node's ``gnss.*`` parameters for ``filter.gnss_mode: tight``
-        (see ``hyper_nav_filter.core.gnss.raw_to_pseudoranges.TIGHT_GNSS_PARAMETERS``):
-        the receiver removes the broadcast ionosphere/troposphere models of the
-        ``gnss.raw`` block, with the Klobuchar coefficients its satellites
-        broadcast (the GnssEphemeris message does not carry them)."""
-        from .gnss.receiver import GnssReceiverConfig
-        rx = GnssReceiverConfig.from_dict(self.data.get("gnss", {}).get("raw"))
-        return {"gnss.ionosphere": rx.ionosphere, "gnss.klobuchar_alpha": [float(x) for x in rx.klobuchar_alpha],
-                "gnss.klobuchar_beta": [float(x) for x in rx.klobuchar_beta], "gnss.troposphere": rx.troposphere,
-                "gnss.use_pseudorange_rates": bool(self["filter.gnss_use_pseudorange_rates"])}
+    def filter_sources(self) -> dict:
+        """The fusion node's declared sources (``filter.sources``; default: IMU
+        and loosely coupled GNSS, ``hyper_nav_filter.sources.DEFAULT_TABLE``).
+        A ``gnss_raw`` source that does not set its receiver models takes
+        those of the ``gnss.raw`` block, with the Klobuchar set its satellites
+        broadcast (the GnssEphemeris message does not carry it)."""
+        return filter_sources(self.data)
 
-    def tight_gnss_input(self):
-        """The tightly coupled GNSS input the fusion node builds from these parameters."""
-        return tight_gnss_input(self.tight_gnss_parameters())
+    def filter_source_specs(self):
+        """The validated table (``hyper_nav_filter.sources.SourceSpec`` list)."""
+        return parse_sources(self.filter_sources())
 
     def rng(self, stream: str) -> np.random.Generator:
         """Independent, reproducible random stream per sensor."""
@@ -350,25 +342,17 @@ def _check_range(field: str, value) -> None:
 
 
 def _check_filter_config(cfg: dict) -> dict:
-    """Types of ``filter.config`` from FilterConfig's field defaults: numbers
-    (an integer is coerced to float), lists of numbers, strings; every
-    ``*sigma*`` field > 0. The filter's own checks follow in FilterConfig."""
-    out = dict(cfg)
-    for f in fields(FilterConfig):
-        if not f.init or f.name not in cfg:
-            continue
-        where, value = f"filter.config.{f.name}", cfg[f.name]
-        if f.name == "state_blocks" or isinstance(f.default, str):
-            continue
-        if isinstance(f.default, tuple):
-            _check_type(where, vec(len(f.default)), list(value) if isinstance(value, tuple) else value)
-            out[f.name] = [float(x) for x in value]
-        else:
-            _check_type(where, NUM, value)
-            out[f.name] = float(value)
-        if "sigma" in f.name:
-            _check_range(where, out[f.name])
-    return out
+    """``filter.config`` checked and coerced by the filter's own parameter
+    declarations (``hyper_nav_filter.core.params``: types, ranges, every
+    sigma > 0, an integer where a float is declared becomes a float); lists
+    stay lists so the file can be written back."""
+    from hyper_nav_filter.core.config import ALL_PARAMS
+    from hyper_nav_filter.core.params import check_all
+    try:
+        coerced = check_all(ALL_PARAMS, cfg, "filter.config.")
+    except ConfigError as exc:
+        raise ScenarioError(str(exc)) from None
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in coerced.items() if k in cfg}
 
 
 def validate(data, source: str = "<dict>") -> dict:
@@ -432,15 +416,28 @@ def validate(data, source: str = "<dict>") -> dict:
         cfg = FilterConfig.from_dict((data.get("filter") or {}).get("config", {}) or {})
     except (ConfigError, TypeError) as exc:
         raise ScenarioError(f"{source}: filter.config: {exc}") from None
-    mode = data["filter"]["gnss_mode"]
     try:
-        check_gnss_mode(mode, cfg)
+        make_sources(parse_sources(filter_sources(data)), cfg)
     except ConfigError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
-    if mode == "tight" and "raw" not in (data.get("gnss") or {}):
-        raise ScenarioError(f"{source}: filter.gnss_mode 'tight' needs a gnss.raw receiver block (pseudoranges)")
     _validate_models(data, source)
     return data
+
+
+def filter_sources(data: dict) -> dict:
+    """See :meth:`Scenario.filter_sources`."""
+    table = copy.deepcopy((data.get("filter") or {}).get("sources") or DEFAULT_TABLE)
+    raw = (data.get("gnss") or {}).get("raw")
+    if raw is not None and isinstance(table, dict):
+        from .gnss.receiver import GnssReceiverConfig
+        rx = GnssReceiverConfig.from_dict(raw)
+        for entry in table.values():
+            if isinstance(entry, dict) and entry.get("type") == "gnss_raw":
+                entry.setdefault("ionosphere", rx.ionosphere)
+                entry.setdefault("klobuchar_alpha", [float(x) for x in rx.klobuchar_alpha])
+                entry.setdefault("klobuchar_beta", [float(x) for x in rx.klobuchar_beta])
+                entry.setdefault("troposphere", rx.troposphere)
+    return table
 
 
 def _validate_models(data: dict, source: str) -> None:
