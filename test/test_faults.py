@@ -6,7 +6,8 @@ Each graph run checks several faults whose signatures do not overlap:
 * ``test_killed_nodes``: kill -9 of the magnetometer, GNSS, IMU and fusion
   nodes during one flight;
 * ``test_bad_input_replayed``: one replayed bag with a NaN burst, duplicated
-  and reversed IMU stamps, a GNSS stream that stops and a truncated file;
+  and reversed IMU stamps, a 5 s IMU gap, a GNSS stream that stops and a
+  truncated file;
 * ``test_signals_stop_cleanly``: SIGTERM and SIGINT to run_graph;
 * the unreadable (20-byte) and truncated bags through every command.
 
@@ -102,42 +103,54 @@ def test_killed_nodes(tmp_path):
 
 def test_bad_input_replayed(tmp_path):
     """The committed 20 s bag with a NaN burst (10 IMU samples from 3.02 s), an
-    IMU sample sent three times (5.0 s), a reversed pair (6.02 after 6.04),
-    GNSS stopping at 10 s and the file cut at 90 %, replayed into a live
-    fusion node by ``run_graph --replay``: fusion rejects and counts exactly
-    the bad samples and keeps going, the monitor warns that GNSS stopped,
-    the report fails for the rejected inputs, the gaps they leave, the
-    stopped stream and the truncated input, and exits 1; everything the player
-    published was recorded."""
+    IMU sample sent three times (5.0 s), a reversed pair (6.02 after 6.04), an
+    IMU gap of 5 s (7-12 s), GNSS stopping at 14 s and the file cut at 90 %
+    (IMU up to 19.1 s), replayed into a live fusion node by ``run_graph
+    --replay``: fusion rejects and counts exactly the bad samples, bridges the
+    gap and keeps going; the monitor reports the IMU missing during the gap (ERROR, then
+    OK again) and GNSS missing from 14 s (WARN); the report fails for the
+    rejected inputs, the bridged gap, the epochs the rejected samples leave
+    out and the truncated input, and exits 1; everything the player published
+    was recorded and received by fusion."""
     src = tmp_path / "in"
     made = doctor_bag(SAMPLE, src, nan_s=np.arange(151, 161) * 0.02, duplicate_s=[5.0], swap_s=[6.02],
-                      gnss_stop_s=10.0, cut_fraction=0.9)
-    assert (made["nan"], made["duplicates"], made["swapped"]) == (10, 2, 1)
-    assert 600 < made["imu_readable"] < made["imu"]
+                      imu_gap_s=(7.0, 12.0), gnss_stop_s=14.0, cut_fraction=0.9)
+    assert (made["nan"], made["duplicates"], made["swapped"], made["gap"]) == (10, 2, 1, 250)
+    assert made["imu_readable"] < made["imu"]                               # the cut loses the tail
     bag = tmp_path / "out"
+    # statuses every 0.5 s of wall time = 2 s of sim time at 4x: the 5 s gap is seen between two of them
     rg = RunGraph(tmp_path, "--replay", str(src), "--record", str(bag), "--report",
-                  "--set", "graph.real_time_factor=4", "--set", "report.skip_s=5")
+                  "--set", "graph.real_time_factor=4", "--set", "report.skip_s=5",
+                  "--set", "graph.diagnostics_period_s=0.5")
     code = rg.wait()
     assert code == 1, rg.output()
     assert "Traceback" not in rg.stderr, rg.stderr
     rep = report_json(bag)
     fusion = rep["fusion_diagnostics"]
     assert int(fusion["rejected_imu_nan"]) == 10
-    assert int(fusion["rejected_imu_out_of_order"]) == 3                 # 2 duplicates + 1 reversed
+    assert int(fusion["rejected_imu_duplicate"]) == 2 and int(fusion["rejected_imu_out_of_order"]) == 1
+    assert int(fusion["imu_gaps"]) == 1 and float(fusion["imu_gap_total_s"]) == pytest.approx(5.02, abs=0.03)
     fails = "\n".join(rep["failures"])
-    assert "inputs: fusion rejected input messages: imu_nan 10, imu_out_of_order 3" in fails
+    assert "inputs: fusion rejected input messages: imu_duplicate 2, imu_nan 10, imu_out_of_order 1" in fails
+    assert "inputs: fusion bridged 1 IMU gap(s), 5.0" in fails
+    assert "inputs: imu/data_raw: received by fusion" in fails                # received != processed (13 rejected)
     assert "bag: player replayed a truncated bag: " in fails and "cut short" in fails
     gaps = {(round(g["from_s"], 2), round(g["to_s"], 2)) for g in rep["epochs"]["gaps"]}
-    assert (3.02, 3.2) in gaps and (6.02, 6.02) in gaps, gaps                # the rejected samples' epochs
+    assert (3.02, 3.2) in gaps or (3.04, 3.2) in gaps, gaps                  # the rejected samples' epochs
     assert rep["verdict"] == "FAIL"
     tl = statuses(bag)
+    bridged = [e for e in tl["hyper_nav_filter: fusion"] if "1 IMU gap(s) bridged, last 7.00-12.02 s" in e[2]]
+    assert bridged and bridged[0][1] == 1                                     # fusion says it: WARN
     gnss = [e for e in tl[f"{MON}stream gnss/fix"] if e[1] == 1]
-    assert gnss and 10.0 <= float(gnss[0][3]["since_t_s"]) <= 15.0, gnss[:1]       # within one status period
+    assert gnss and 13.5 <= float(gnss[0][3]["since_t_s"]) <= 18.0, gnss[:1]
     assert 1 in _levels(tl, "hyper_nav_sim: player")                          # WARN: truncated input
     rows = rep["delivery"]
     for topic in ("imu/data_raw", "gnss/fix", "gnss/vel", "truth/state", "nav/state"):
         assert rows[topic]["published"] == rows[topic]["recorded"] > 0, (topic, rows[topic])
+    for topic in ("imu/data_raw", "gnss/fix"):
+        assert rows[topic]["received_by_fusion"] == rows[topic]["published"], (topic, rows[topic])
     assert rows["imu/data_raw"]["published"] == made["imu_readable"]
+    assert rows["imu/data_raw"]["processed_by_fusion"] == made["imu_readable"] - 13
     # the recorded run, cut short afterwards: the report says so and fails
     mcap = next(bag.glob("*.mcap"))
     mcap.write_bytes(mcap.read_bytes()[: int(mcap.stat().st_size * 0.7)])

@@ -304,6 +304,7 @@ def _report(argv) -> int:
     run_check.input_truncated(run["by_node"], out)
     fusion = run["by_node"].get(run_check.FUSION_NODE, {})
     run_check.rejected_inputs(fusion, out)
+    run_check.bridged_gaps(fusion, out)
     run_check.status_faults(run["timeline"], out, exits)
     ep = out.details["epochs"]
     print(f"epochs: {ep['scored']} of {ep['expected']} expected solution epochs (with truth) published")
@@ -352,6 +353,7 @@ def _replay(argv) -> int:
         out.failures.append(f"inputs: imu/data_raw: {n_imu} in the bag, {eng.counters['imu_accepted']} "
                             f"accepted by the filter")
     run_check.rejected_inputs(dict(eng.counters), out)
+    run_check.bridged_gaps(dict(eng.counters), out)
     if args.smooth and summary is not None:
         from hyper_nav_filter.offline import smooth
         sm = summarize(errors(states_from_solutions(smooth(eng)), truth), summary["skip_s"])

@@ -11,9 +11,10 @@ each expected stream whether it is alive:
   after a status with ``finished: true`` (it ended by itself).
 * stream: WARN (ERROR for a critical stream such as the IMU) when its count
   did not advance over ``timeout_s`` of sim time, or when every node that
-  reported it went silent (its producer and consumer died). The count is taken where
-  the data is used, at the live consumers that report ``received <topic>``,
-  else at the live producers (``published <topic>``). Silence is measured
+  reported it went silent (its producer and consumer died). It is judged at
+  every live node that reports it, the producers (``published <topic>``: a
+  stream with a hole) and the consumers (``received <topic>``: a stream lost
+  on the way), and the longest silence counts. Silence is measured
   between the reporter's own reports: from the stamp of the last message
   when the reporter gives it (``last <topic>``, sensors and player), else
   from the report at which the count last advanced, to its latest report, on
@@ -163,8 +164,7 @@ class LivenessMonitor:
         if self.sim_s is None:
             return Verdict(name, STALE, "waiting for /clock")
         sources = self._sources[spec.topic].values()
-        live = [s for s in sources if s.kind == "received" and self.alive(s.node, wall_s)] or \
-            [s for s in sources if s.kind == "published" and self.alive(s.node, wall_s)]
+        live = [s for s in sources if self.alive(s.node, wall_s)]
         if not live:
             if sources:                      # every node that reported it went silent
                 last = max(s.t_report_s for s in sources)
@@ -181,7 +181,7 @@ class LivenessMonitor:
 
         def silence(s):
             return min(s.t_report_s, self.cfg.end_s) - since(s)
-        worst = max(live, key=silence)
+        worst = max(live, key=lambda s: (silence(s), s.kind == "received"))     # ties: say it at the consumer
         silent = silence(worst)
         where = "received at" if worst.kind == "received" else "published by"
         if silent > spec.timeout_s:

@@ -156,6 +156,17 @@ def rejected_inputs(fusion_values: dict, out: Outcome) -> dict:
     return rej
 
 
+def bridged_gaps(fusion_values: dict, out: Outcome) -> int:
+    """IMU gaps the fusion engine bridged (``imu_gaps``, ``imu_gap_total_s``):
+    its solutions there come from interpolated rates, not from measured data."""
+    n = int(float(fusion_values.get("imu_gaps", 0) or 0))
+    if n:
+        out.failures.append(f"inputs: fusion bridged {n} IMU gap(s), "
+                            f"{float(fusion_values.get('imu_gap_total_s', 0) or 0):.2f} s without IMU data")
+    out.details["imu_gaps"] = n
+    return n
+
+
 def schedule_rows(last_values: dict, out: Outcome) -> dict:
     """A sensor that published less than its whole stream stopped early."""
     rows = {}

@@ -143,9 +143,16 @@ class Player(Node):
                             values, finished=finished)
 
     def wait_acked(self) -> None:
+        """Wait (at most ACK_TIMEOUT per topic) until every subscriber acknowledged
+        what was published, still publishing the status meanwhile."""
+        step = Duration(seconds=0.1)
         for pub in [*self.pubs.values(), self.clock_pub]:
-            if pub is not None and not pub.wait_for_all_acked(ACK_TIMEOUT):
-                self.get_logger().warning(f"{pub.topic_name}: not all messages acknowledged")
+            deadline = time.monotonic() + ACK_TIMEOUT.nanoseconds * 1e-9
+            while pub is not None and not pub.wait_for_all_acked(step):
+                self.publish_status()
+                if time.monotonic() > deadline or not rclpy.ok(context=self.context):
+                    self.get_logger().warning(f"{pub.topic_name}: not all messages acknowledged")
+                    break
 
     def play(self) -> None:
         """Publish every readable message, paced by log time / rate."""

@@ -46,6 +46,7 @@ def test_waiting_then_all_alive_without_false_alarm():
 
 
 def test_stream_that_stops_while_its_node_lives_is_missing_since_its_last_progress():
+    """Judged at the producer and at the consumer: the longest silence counts."""
     r = Run()
     for _ in range(4):
         r.second()                             # sim 12 s

@@ -104,6 +104,13 @@ def test_dead_publisher_counts_are_a_lower_bound():
     assert any("received by fusion 380" in f for f in out.failures)
 
 
+def test_bridged_imu_gaps_fail():
+    out = run_check.Outcome()
+    assert run_check.bridged_gaps({"imu_gaps": "1", "imu_gap_total_s": "5.0"}, out) == 1
+    assert out.failures == ["inputs: fusion bridged 1 IMU gap(s), 5.00 s without IMU data"]
+    assert run_check.bridged_gaps({}, run_check.Outcome()) == 0
+
+
 def test_rejected_inputs_fail():
     out = run_check.Outcome()
     run_check.rejected_inputs({"rejected_imu_nan": "10", "rejected_imu_out_of_order": "3", "imu_msgs": "5"}, out)
