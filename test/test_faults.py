@@ -48,9 +48,20 @@ def _monitor_levels(collector) -> dict:
     return out
 
 
+def _sim_time(collector) -> float:
+    """The truth node's latest sim time seen on /diagnostics."""
+    t = -1.0
+    for arr in list(collector.messages["/diagnostics"]):
+        for st in arr.status:
+            if st.name == "hyper_nav_sim: truth":
+                t = max(t, float({kv.key: kv.value for kv in st.values}.get("sim_time_s") or -1.0))
+    return t
+
+
 def test_killed_nodes(tmp_path):
     """kill -9 of the magnetometer, GNSS, IMU and fusion nodes, 0.5 s apart,
-    once the monitor has seen every node alive, in a 24 s flight at 3x:
+    once the monitor has seen every node alive and the flight has flown 2 s,
+    in a 24 s flight at 3x:
     run_graph keeps the graph flying to the end, the monitor reports each node
     dead (ERROR, live on /diagnostics and in the bag) and the streams they
     carried missing, the recorder keeps every message of the surviving
@@ -64,8 +75,8 @@ def test_killed_nodes(tmp_path):
         rg = RunGraph(tmp_path, "--set", "duration_s=24", "--set", "report.skip_s=5",
                       "--set", "monitor.heartbeat_timeout_s=3", "--record", str(bag), "--report")
         everyone = ["truth", "imu", "gnss", "magnetometer", "fusion", "recorder"]
-        assert c.wait_for(lambda m: all(_monitor_levels(c).get(f"node {n}") == 0 for n in everyone), 120), \
-            (_monitor_levels(c), rg.output())
+        assert c.wait_for(lambda m: all(_monitor_levels(c).get(f"node {n}") == 0 for n in everyone)
+                          and _sim_time(c) >= 2.0, 120), (_monitor_levels(c), rg.output())
         pids = rg.children()
         for node in killed:
             rg.kill(node)
@@ -238,7 +249,7 @@ def test_flight_across_180_deg_in_2022(tmp_path):
     assert rep["summary"]["pos_enu_m"]["rms_3d"] < 5.0                      # not 4e7 m
     assert code == 0 and rep["verdict"] == "PASS", (rep["failures"], rg.output())
     mags = [deserialize(r.raw, r.msgtype) for r in read_bag(bag) if r.topic == "/imu/mag"]
-    assert len(mags) == 161
+    assert len(mags) == 160                                                  # 0.1 .. 16.0 s at 10 Hz
     b_nT = np.linalg.norm([[m.magnetic_field.x, m.magnetic_field.y, m.magnetic_field.z] for m in mags], axis=1) * 1e9
     tr = [deserialize(r.raw, r.msgtype) for r in read_bag(bag) if r.topic == "/truth/state"][0]
     ref = np.linalg.norm(wmm.field_enu_nT(tr.lat_rad, tr.lon_rad, tr.alt_m, 2022.5))
