@@ -395,10 +395,9 @@ class Graph:
         if self.stopping:
             return
         self.stopping = True
-        if "monitor" in self.procs:
-            self._interrupt("monitor")
-            self._reap("monitor")
-        others = [n for n in self.procs if n not in ("recorder", "monitor")]
+        # the monitor first, in the same pass (it needs heartbeat_timeout_s of silence to call a node dead)
+        others = [n for n in ("monitor",) if n in self.procs] + \
+            [n for n in self.procs if n not in ("recorder", "monitor")]
         for name in others:
             self._interrupt(name)
         for name in others:

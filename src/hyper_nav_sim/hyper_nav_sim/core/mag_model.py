@@ -34,7 +34,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi
 
 from hyper_nav_filter.core import earth
 
@@ -56,6 +55,7 @@ class MapErrorField:
     def __init__(self, rms_nT: float, corr_length_m: float, n_waves: int = 256, seed: int = 0):
         self.rms_nT = float(rms_nT)
         self.corr_length_m = float(corr_length_m)
+        from scipy.stats import chi        # here, not at module level: 1-3 s of every sensor node's start-up
         rng = np.random.default_rng(seed)
         k_mag = chi.ppf((np.arange(n_waves) + 0.5) / n_waves, df=3) / corr_length_m
         rng.shuffle(k_mag)

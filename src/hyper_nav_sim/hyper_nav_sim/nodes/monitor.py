@@ -34,7 +34,6 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from hyper_nav_filter.conversions import stamp_to_s
 from hyper_nav_filter.ros_util import publisher_qos, run_node
 
 from ..core.liveness import ERROR, OK, STALE, WARN, LivenessConfig, LivenessMonitor, StreamSpec
@@ -71,7 +70,7 @@ class MonitorNode(Node):
         self._last_level = {}
 
     def _on_clock(self, msg: Clock) -> None:
-        self.core.on_clock(stamp_to_s(msg.clock))
+        self.core.on_clock(msg.clock.sec + msg.clock.nanosec * 1e-9)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         now = time.monotonic()
