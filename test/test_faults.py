@@ -8,7 +8,8 @@ Each graph run checks several faults whose signatures do not overlap:
 * ``test_bad_input_replayed``: one replayed bag with a NaN burst, duplicated
   and reversed IMU stamps, a 5 s IMU gap, a GNSS stream that stops and a
   truncated file;
-* ``test_signals_stop_cleanly``: SIGTERM and SIGINT to run_graph;
+* ``test_signals_stop_cleanly``: SIGTERM and SIGINT to run_graph; kill -9
+  of run_graph itself;
 * the unreadable (20-byte) and truncated bags through every command.
 
 Each asserts the diagnostics seen, the report's verdict and reasons, the
@@ -193,6 +194,28 @@ def test_signals_stop_cleanly(tmp_path, sig):
     assert rep["verdict"] == "FAIL"
     assert rep["failures"][0].startswith(f"run: interrupted by {name}")
     assert rep["delivery"]["imu/data_raw"]["published"] == rep["delivery"]["imu/data_raw"]["recorded"] > 0
+
+
+def test_kill_9_of_run_graph_leaves_no_node_behind(tmp_path):
+    """run_graph itself killed (kill -9: no handler runs): its nodes get
+    SIGTERM from the kernel (parent-death signal) and stop; the recorder
+    still drains and closes the bag with its metadata."""
+    import time
+    bag = tmp_path / "bag"
+    rg = RunGraph(tmp_path, "--set", "duration_s=60", "--nodes", "truth,imu", "--record", str(bag))
+    t0 = rg.wait_for_log(tmp_path / "bag_logs", "truth", "subscribers matched")
+    pids = rg.children()
+    rg.sleep_until(t0 + 1.0)
+    rg.proc.kill()
+    assert rg.wait(timeout_s=30) == -signal.SIGKILL
+    deadline = time.monotonic() + 30.0
+    while alive(pids.values()) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not alive(pids.values()), "node processes left behind"
+    assert (bag / "metadata.yaml").is_file()
+    from hyper_nav_sim.core.bag import read_bag
+    reader = read_bag(bag)
+    assert not reader.truncated and sum(1 for r in reader if r.topic == "/imu/data_raw") > 0
 
 
 def test_unreadable_and_truncated_bags(tmp_path, capsys):

@@ -265,6 +265,9 @@ class Graph:
             sensors = len(self._sensor_nodes())
             p = {"scenario": sc_path, "clock_subscribers": sensors + (1 if self.record else 0) + self.extra.get("/clock", 0),
                  "min_subscribers": self._subscribers(["truth/state"])}
+            clock_nodes = [ROS_NAMES.get(n, n) for n in self._sensor_nodes()] + (["recorder"] if self.record else [])
+            if clock_nodes:
+                p["clock_nodes"] = clock_nodes
             waits = self._waits()
             if waits:
                 p.update({"wait_topics": list(waits), "wait_counts": list(waits.values())})

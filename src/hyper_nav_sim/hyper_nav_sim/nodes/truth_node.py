@@ -1,7 +1,9 @@
 """Truth node: sim-time source (``/clock``) and ``truth/state``.
 
 Advances sim time in steps of 1 / graph.clock_rate_hz, paced at
-graph.real_time_factor x wall time, once ``/clock`` has ``clock_subscribers``
+graph.real_time_factor x wall time, once each node named in ``clock_nodes``
+has a ``/clock`` subscription (by node name: a count would be fooled by a node
+with two, e.g. a recorder on sim time) and ``/clock`` has ``clock_subscribers``
 matched subscriptions and ``truth/state`` has ``min_subscribers``. Publishes
 the exact truth (hyper_nav_msgs/NavState, mode TRUTH) at graph.truth_rate_hz,
 and exits ``tail_s`` of sim time after the scenario ends.
@@ -40,6 +42,7 @@ class TruthNode(Node):
         sc = self.scenario = load_scenario(self.declare_parameter("scenario", "default").value)
         self.rtf = float(self.declare_parameter("real_time_factor", sc["graph.real_time_factor"]).value)
         self.clock_subscribers = self.declare_parameter("clock_subscribers", 0).value
+        self.clock_nodes = set(string_array_param(self, "clock_nodes"))
         self.min_subscribers = self.declare_parameter("min_subscribers", 0).value
         self.wait_topics = string_array_param(self, "wait_topics")
         self.declare_parameter("wait_counts", [0])
@@ -71,7 +74,8 @@ class TruthNode(Node):
         self.timer = self.create_timer(0.05, self._wait)
 
     def _wait(self):
-        if not (self.pub_clock.get_subscription_count() >= self.clock_subscribers
+        subscribed = {i.node_name for i in self.get_subscriptions_info_by_topic(self.pub_clock.topic_name)}
+        if not (self.pub_clock.get_subscription_count() >= self.clock_subscribers and self.clock_nodes <= subscribed
                 and all_matched([self.pub_truth], self.min_subscribers)
                 and all(self.count_subscribers(t) >= n for t, n in zip(self.wait_topics, self.wait_counts))):
             return
