@@ -75,6 +75,7 @@ EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim"
                "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor")}
 # ROS node names where they differ from the graph's process names
 ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
+_CLK_TCK = os.sysconf("SC_CLK_TCK")
 CLOCK_SOURCES = ("truth", "player")          # publish /clock; their normal exit ends the run
 CRITICAL_STREAMS = ("imu/data_raw", "nav/state")
 # topics a replay feeds into the graph (the rest of a recorded run is its own output)
@@ -366,9 +367,41 @@ class Graph:
                 raise NodeDied(f"node '{name}' {event['how']}; log:\n{self.log(name)[-3000:]}")
         return new
 
-    def wait_until_done(self, timeout_s: float | None = None, drain_s: float = 2.0) -> None:
+    def _cpu_s(self) -> dict[str, float]:
+        """CPU time (user + system, s) of each running node process (/proc)."""
+        out = {}
+        for name, p in self.procs.items():
+            try:
+                fields = pathlib.Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()
+                out[name] = (int(fields[11]) + int(fields[12])) / _CLK_TCK
+            except (OSError, IndexError, ValueError):
+                continue
+        return out
+
+    def wait_idle(self, min_s: float = 0.5, max_s: float = 60.0, window_s: float = 0.5,
+                  busy_fraction: float = 0.03, quiet_windows: int = 2) -> float:
+        """Let every node finish what is queued: wait until, over
+        ``quiet_windows`` windows of ``window_s`` in a row, no node process used
+        more than ``busy_fraction`` of a CPU (an idle rclpy node uses < 1 %),
+        at least ``min_s``, at most ``max_s``. A fixed drain is too short on a
+        loaded machine (a fusion node still working through its input queue
+        at SIGINT never sees the rest) and too long on an idle one. Returns
+        the time waited (s)."""
+        t0 = time.monotonic()
+        time.sleep(min_s)
+        prev, quiet = self._cpu_s(), 0
+        while quiet < quiet_windows and time.monotonic() - t0 < max_s:
+            time.sleep(window_s)
+            cur = self._cpu_s()
+            busy = [n for n in cur if n in prev and cur[n] - prev[n] > busy_fraction * window_s]
+            quiet = 0 if busy else quiet + 1
+            prev = cur
+        return time.monotonic() - t0
+
+    def wait_until_done(self, timeout_s: float | None = None, drain_s: float = 0.5) -> None:
         """Wait for the time source (truth node, or the player) to finish, let
-        messages drain, then stop every node (recorder last, so it closes a
+        messages drain (at least ``drain_s``, then until every node is idle,
+        ``wait_idle``), then stop every node (recorder last, so it closes a
         complete bag). A node that dies is recorded in ``exits`` (and raises
         NodeDied with on_node_death='raise'); if it was the time source or the
         recorder, the graph stops at once."""
@@ -388,7 +421,7 @@ class Graph:
             time.sleep(0.2)
         self._poll_exits()
         self.stop_reason = self.stop_reason or "end of the scenario"
-        time.sleep(drain_s)
+        self.wait_idle(min_s=drain_s)
         self._poll_exits()
         self.stop()
 
