@@ -49,6 +49,16 @@ def _monitor_levels(collector) -> dict:
     return out
 
 
+def _fusion_published(collector) -> int:
+    """Solutions the fusion node has published so far (its status on /diagnostics)."""
+    n = 0
+    for arr in list(collector.messages["/diagnostics"]):
+        for st in arr.status:
+            if st.name == "hyper_nav_filter: fusion":
+                n = max(n, int({kv.key: kv.value for kv in st.values}.get("published nav/state", 0)))
+    return n
+
+
 def _sim_time(collector) -> float:
     """The truth node's latest sim time seen on /diagnostics."""
     t = -1.0
@@ -61,8 +71,8 @@ def _sim_time(collector) -> float:
 
 def test_killed_nodes(tmp_path):
     """kill -9 of the magnetometer, GNSS, IMU and fusion nodes, 0.5 s apart,
-    once the monitor has seen every node alive and the flight has flown 2 s,
-    in a 24 s flight at 3x:
+    once the monitor has seen every node alive, the flight has flown 2 s and
+    fusion has published, in a 24 s flight at 3x:
     run_graph keeps the graph flying to the end, the monitor reports each node
     dead (ERROR, live on /diagnostics and in the bag) and the streams they
     carried missing, the recorder keeps every message of the surviving
@@ -77,7 +87,7 @@ def test_killed_nodes(tmp_path):
                       "--set", "monitor.heartbeat_timeout_s=3", "--record", str(bag), "--report")
         everyone = ["truth", "imu", "gnss", "magnetometer", "fusion", "recorder"]
         assert c.wait_for(lambda m: all(_monitor_levels(c).get(f"node {n}") == 0 for n in everyone)
-                          and _sim_time(c) >= 2.0, 120), (_monitor_levels(c), rg.output())
+                          and _sim_time(c) >= 2.0 and _fusion_published(c) > 0, 120), (_monitor_levels(c), rg.output())
         pids = rg.children()
         for node in killed:
             rg.kill(node)
