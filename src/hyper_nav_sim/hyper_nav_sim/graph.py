@@ -419,7 +419,9 @@ class Graph:
                 raise TimeoutError(f"scenario did not finish within {timeout_s:.0f} s; {name} log:\n"
                                    f"{self.log(name)[-2000:]}")
             time.sleep(0.2)
-        self._poll_exits()
+        fatal = [e for e in self._poll_exits() + self.exits if e["node"] in CLOCK_SOURCES + ("recorder",)]
+        if fatal and not self.stop_reason:
+            self.stop_reason = f"node '{fatal[0]['node']}' died: nothing more can be flown or recorded"
         self.stop_reason = self.stop_reason or "end of the scenario"
         self.wait_idle(min_s=drain_s)
         self._poll_exits()
