@@ -2,6 +2,7 @@
 # `make test` sets up and runs the whole suite.
 SHELL := /bin/bash
 SCENARIO ?= default
+RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
@@ -9,6 +10,7 @@ ENV := source tools/env.sh &&
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
+	@echo "             (RUN_ARGS=\"--set duration_s=60\" passes more run_graph arguments; exits 1 if the report fails)"
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
@@ -17,7 +19,7 @@ setup:
 	@bash tools/setup.sh
 
 run: setup
-	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report
+	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report $(RUN_ARGS)
 
 test: setup
 	@$(ENV) python -m pytest -c pytest.ini

@@ -39,4 +39,7 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
     --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF \
     --event-handlers console_cohesion- summary+ 2>&1 | tail -n 20
   touch install/.stamp
+  # compile the filter's fast-path kernels into numba's on-disk cache now, not in a node's first callback
+  ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
+    python -m hyper_nav_filter.core.fast.warmup )
 fi

@@ -29,6 +29,7 @@ setup(
             "radar_node = hyper_nav_sim.nodes.radar_node:main",
             "recorder = hyper_nav_sim.nodes.recorder:main",
             "player = hyper_nav_sim.nodes.player:main",
+            "monitor = hyper_nav_sim.nodes.monitor:main",
             "run_graph = hyper_nav_sim.graph:main",
             "report = hyper_nav_sim.report:main",
             "replay_filter = hyper_nav_sim.report:replay_main",

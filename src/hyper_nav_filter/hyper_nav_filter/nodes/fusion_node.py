@@ -25,6 +25,7 @@ from sensor_msgs.msg import NavSatFix
 
 from ..core.attitude import quat_xyzw_to_C
 from ..core.config import ALL_PARAMS, FilterConfig
+from ..core.fast.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.nav_state import NavState
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, nonneg, positive
@@ -79,6 +80,7 @@ class FusionNode(Node):
         init = NavState(p["init.t_s"], np.deg2rad(p["init.lat_deg"]), np.deg2rad(p["init.lon_deg"]),
                         p["init.alt_m"], np.asarray(p["init.vel_enu_mps"], float),
                         quat_xyzw_to_C(p["init.q_b_enu_xyzw"]))
+        warm_up()                       # compiled kernels loaded (or compiled) before any message arrives
         self.engine = FusionEngine(self.cfg, init)
         self.router = SourceRouter(self.engine, self.table)
         origin = [p["origin.lat_deg"], p["origin.lon_deg"], p["origin.alt_m"]]

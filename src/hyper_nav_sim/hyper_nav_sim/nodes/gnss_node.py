@@ -104,6 +104,7 @@ class GnssNode(ClockDrivenSensor):
         m.cuc_rad, m.cus_rad, m.crc_m, m.crs_m = float(eph.cuc), float(eph.cus), float(eph.crc), float(eph.crs)
         m.cic_rad, m.cis_rad = float(eph.cic), float(eph.cis)
         m.af0_s, m.af1_sps, m.af2_sps2, m.tgd_s = float(eph.af0), float(eph.af1), float(eph.af2), float(eph.tgd)
+        m.iode, m.health = int(eph.iode), int(eph.health)
         return m
 
     def _make_fix(self, i: int) -> NavSatFix:
