@@ -47,11 +47,13 @@ OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario b
 FUSION_INPUTS = {"loose": {"imu/data_raw", "gnss/fix", "gnss/vel"},          # by filter.gnss_mode
                  "tight": {"imu/data_raw", "gnss/raw", "gnss/ephemeris"}}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
+TRACKER_OUTPUTS = ["track/fix", "track/vel"]     # tracker_node: starts with a radar block (seed 002)
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
+               "tracker": ("hyper_nav_filter", "tracker_node"),
                "player": ("hyper_nav_sim", "player")}
 
 
@@ -113,6 +115,7 @@ class Graph:
         if nodes is None:
             nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
                                                if block in self.scenario.data) + ("fusion",)
+            nodes += ("tracker",) if "radar" in self.scenario.data else ()
         self.nodes = tuple(nodes)
         self.extra = dict(extra_subscribers or {})
         self.node_params = node_params or {}
@@ -127,6 +130,8 @@ class Graph:
         """How many subscriptions the publishers of these topics must see."""
         n = 1 if self.record else 0
         if "fusion" in self.nodes and FUSION_INPUTS[self.scenario["filter.gnss_mode"]] & set(topics):
+            n += 1
+        if "tracker" in self.nodes and "radar/track" in topics:
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
@@ -143,6 +148,11 @@ class Graph:
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
             p["min_output_subscribers"] = self._subscribers(FUSION_OUTPUTS)
+        elif name == "tracker":
+            from .core.tracking_setup import tracker_parameters
+            p = tracker_parameters(self.scenario)
+            p["radar.rate_hz"] = float(self.scenario["radar.rate_hz"])
+            p["min_output_subscribers"] = self._subscribers(TRACKER_OUTPUTS)
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"])}
         else:

@@ -1,0 +1,70 @@
+"""Extended Kalman filter on the parametric glide model (seed 002 eqs. 23-27).
+
+Pure functions of arrays in the scaled state units of ``glide_model``; the
+filters built on them (adaptive EKF, IMM, L-EKF) reuse ``predict``, ``gain``
+and ``update``. The covariance update is Joseph's form, valid for any gain:
+the L-EKF updates with a modified gain K~ (section 2.4 step 5), for which the
+printed (I - K~ H) P is not the covariance of the estimate.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from . import glide_model as gm
+
+
+class EkfCarry(NamedTuple):
+    x: jnp.ndarray          # (7,) scaled state
+    P: jnp.ndarray          # (7, 7) scaled covariance
+
+
+def predict(model: gm.GlideModel, x, P, u, dt, Q):
+    """Eqs. 23-24: x- = f(x, u), P- = F P F^T + Q dt (Q per second, scaled units)."""
+    x_pred, F = gm.propagate_with_jacobian(model, x, u, dt)
+    P_pred = F @ P @ F.T + Q * dt
+    return x_pred, 0.5 * (P_pred + P_pred.T), F
+
+
+def gain(x_pred, P_pred, z, R):
+    """Eqs. 25-27: innovation y = z - h(x-), S = H P- H^T + R, K = P- H^T S^-1."""
+    y = gm.wrap_innovation(z - gm.measure(x_pred))
+    S = P_pred[: gm.N_Z, : gm.N_Z] + R
+    K = jnp.linalg.solve(S, P_pred[: gm.N_Z, :]).T      # P- H^T S^-1 (S symmetric)
+    return K, y, 0.5 * (S + S.T)
+
+
+def update(x_pred, P_pred, K, y, R):
+    """x = x- + K y, P = (I - K H) P- (I - K H)^T + K R K^T (Joseph)."""
+    IKH = jnp.eye(gm.N_X, dtype=P_pred.dtype).at[:, : gm.N_Z].add(-K)
+    P = IKH @ P_pred @ IKH.T + K @ R @ K.T
+    return x_pred + K @ y, 0.5 * (P + P.T)
+
+
+def nis(y, S):
+    """Normalized innovation squared y^T S^-1 y."""
+    return y @ jnp.linalg.solve(S, y)
+
+
+def ekf_step(model: gm.GlideModel, u, Q, R, carry: EkfCarry, z, dt, valid):
+    """One radar epoch; ``valid`` False = predict only (no measurement)."""
+    x_pred, P_pred, _ = predict(model, carry.x, carry.P, u, dt, Q)
+    K, y, S = gain(x_pred, P_pred, z, R)
+    K = jnp.where(valid, K, 0.0)
+    x, P = update(x_pred, P_pred, K, y, R)
+    return EkfCarry(x, P), {"x": x, "P": P, "u": u, "nis": jnp.where(valid, nis(y, S), 0.0)}
+
+
+def run(step, carry0, Z, DT, valid=None):
+    """Scan a step function ``step(carry, z, dt, valid) -> (carry, out)`` over
+    the measurements Z (N, 3) with intervals DT (N,) (DT[0]: from the initial
+    state's epoch to the first measurement)."""
+    if valid is None:
+        valid = jnp.ones(Z.shape[0], dtype=bool)
+
+    def body(c, inp):
+        return step(c, *inp)
+
+    return jax.lax.scan(body, carry0, (Z, DT, valid))

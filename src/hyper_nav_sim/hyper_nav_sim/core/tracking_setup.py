@@ -1,0 +1,64 @@
+"""Scenario -> target tracker: the tracker's configuration (the scenario's
+``tracker:`` block, with the radar noise of its ``radar:`` block), the
+tracker node's ROS parameters, and the truth/radar track of the scenario's
+flight for offline runs."""
+from __future__ import annotations
+
+import numpy as np
+
+from hyper_nav_filter.core.tracking import glide_model as gm
+from hyper_nav_filter.core.tracking.config import TrackerConfig
+
+from .radar import EarlyWarningRadar
+from .scenario import Scenario
+from .tracking_data import Track, truth_track
+
+
+def tracker_config(sc: Scenario, **overrides) -> TrackerConfig:
+    """``TrackerConfig`` of a scenario: its ``tracker:`` block; the filter's R
+    is the radar's datasheet noise (``radar:`` block)."""
+    d = dict(sc.data.get("tracker") or {})
+    radar = sc.data.get("radar") or {}
+    for key in ("sigma_alt_m", "sigma_lon_rad", "sigma_lat_rad"):
+        if key in radar:
+            d.setdefault(f"radar_{key}", radar[key])
+    d.update(overrides)
+    return TrackerConfig.from_dict(d)
+
+
+def radar_model(sc: Scenario) -> EarlyWarningRadar:
+    return EarlyWarningRadar(**dict(sc.data["radar"]))
+
+
+def scenario_track(sc: Scenario, nominal_t_chi_s: float | None = None) -> Track:
+    """Truth state and inputs at the radar epochs of the scenario's flight."""
+    cfg = tracker_config(sc)
+    radar = radar_model(sc)
+    traj = sc.trajectory()
+    t = radar.epochs(sc["duration_s"])
+    man = (sc.data.get("flight") or {}).get("maneuvers", [])
+    x, u = truth_track(traj, t, man, nominal_t_chi_s or cfg.nominal_t_chi_s)
+    return Track(t, x, u, sc.data.get("flight", {}))
+
+
+def tracker_parameters(sc: Scenario) -> dict:
+    """The tracker node's ROS parameters, all derived from the scenario: the
+    configuration (``tracker.*``) and the initial estimate (``init.*``: the true
+    state at t = 0 plus ``tracker.init_error_*``, a track hand-over)."""
+    cfg = tracker_config(sc)
+    tr = sc.trajectory()
+    x_true, _ = truth_track(tr, np.array([0.0]))
+    x0 = cfg.initial_estimate(x_true[0])
+    params = cfg.as_parameters()
+    params.update({"init.t_s": 0.0, "init.state": [float(v) for v in x0], "qos.depth": int(sc["graph.qos_depth"])})
+    return params
+
+
+def radar_measurements(sc: Scenario, rng: np.random.Generator) -> np.ndarray:
+    """(N, 3) radar z = [alt_m, lon_rad, lat_rad] of the scenario's flight with a given noise draw."""
+    radar = radar_model(sc)
+    return radar.measure(sc.trajectory(), radar.epochs(sc["duration_s"]), rng).as_array()
+
+
+def scaled(x_phys) -> np.ndarray:
+    return gm.to_scaled(x_phys)
