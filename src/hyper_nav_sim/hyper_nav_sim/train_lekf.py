@@ -96,8 +96,13 @@ def main(argv=None) -> int:
         return float(evaluate(variables, net.init_carry(x0, P0b), Z, DT, valid, Xs, Us)[0])
 
     ekf_test = loss_on(sets[2], variables, args.seed + 2)      # untrained L-EKF = EKF
+    def checkpoint(best, history):
+        params_store.save(str(args.out) + ".partial", arch, jax.device_get(best),
+                          {"history": history, "data": {"data_seed": args.data_seed}, "n_parameters": 0})
+
     variables, history = train(net, variables, sets[0], sets[1], tcfg, cfg.P0,
-                               time_limit_s=None if args.time_limit_min is None else 60 * args.time_limit_min)
+                               time_limit_s=None if args.time_limit_min is None else 60 * args.time_limit_min,
+                               on_epoch=checkpoint)
     wall = time.monotonic() - t0
     test = loss_on(sets[2], variables, args.seed + 2)
     print(f"[train_lekf] test WMAE {test:.3f} (EKF, i.e. untrained: {ekf_test:.3f}); training {wall / 60:.1f} min")
@@ -106,6 +111,7 @@ def main(argv=None) -> int:
                                                   "generator": "hyper_nav_sim.core.tracking_data.random_flight"},
             "tracker_config": cfg.as_parameters(), "scenario": args.scenario, "history": history,
             "test_wmae": test, "test_wmae_ekf": ekf_test, "training_wall_s": wall,
+            "best_epoch": int(min(history, key=lambda h: h["val_loss"])["epoch"]),
             "n_parameters": count_parameters(variables), "jax": jax.__version__}
     stem = params_store.save(args.out, arch, jax.device_get(variables), meta)
     print(f"[train_lekf] wrote {stem}.npz / .json")

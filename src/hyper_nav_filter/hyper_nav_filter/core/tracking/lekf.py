@@ -57,7 +57,10 @@ class LekfArch:
     gmn_dense: tuple[int, int] = (32, 8)
     gmn_lstm: tuple[int, int] = (32, 32)
     imn_output_range: tuple[float, float, float] = (6.0, 24.0, 4.0)
-    bn_momentum: float = 0.99
+    # running-average momentum of BN per filter step: 0.9995 remembers ~2000
+    # steps (a few batches); 0.99 remembered only the last chunk's flight phase
+    # and the few long tracks still running at a batch's end
+    bn_momentum: float = 0.9995
 
     @classmethod
     def paper(cls) -> "LekfArch":

@@ -2,8 +2,10 @@
 section 3.1): weighted mean absolute error (section 3.1.3) and RMSprop
 (section 3.1.4) with optax.
 
-Sequences: every training track is filtered from its first radar epoch to
-its last, in chunks of ``chunk`` steps (the paper's segments of length 100);
+Sequences: every training track is filtered from a random epoch of its
+flight (``random_offsets``; the filter starts there from the truth plus an
+error drawn from P0) to its last, in chunks of ``chunk`` steps (the paper's
+segments of length 100);
 gradients flow through the whole recursion inside a chunk (filter state,
 covariance, both LSTMs) and are cut between chunks, while the filter and LSTM
 states carry over (truncated back-propagation through time). A batch holds
@@ -115,15 +117,25 @@ class TrackSet:
     dt: float
 
 
-def noisy_batch(ts: TrackSet, idx, R, P0, rng: np.random.Generator):
-    """Radar measurements and perturbed initial states for the tracks ``idx``:
-    returns x0 (B, 7), P0 (B, 7, 7), Z, DT, valid, X, U (time-major)."""
+def noisy_batch(ts: TrackSet, idx, R, P0, rng: np.random.Generator, offsets=None):
+    """Radar measurements and perturbed initial states for the tracks ``idx``,
+    each starting ``offsets[i]`` epochs into its flight (default 0): returns
+    x0 (B, 7), P0 (B, 7, 7), Z, DT, valid, X, U (time-major) and the lengths."""
     X = ts.X[idx]
     U = ts.U[idx]
+    length = ts.length[idx].copy()
+    if offsets is not None:
+        T0 = X.shape[1]
+        cols = np.minimum(np.arange(T0)[None, :] + offsets[:, None], T0 - 1)
+        X = np.take_along_axis(X, cols[..., None], axis=1)
+        U = np.take_along_axis(U, cols[..., None], axis=1)
+        length = length - offsets
+        T = int(length.max())
+        X, U = X[:, :T], U[:, :T]
     b, T = X.shape[:2]
     sig = np.sqrt(np.diag(R))
     Z = X[..., : gm.N_Z] + sig * rng.standard_normal((b, T, gm.N_Z))
-    valid = np.arange(T)[None, :] < ts.length[idx][:, None]
+    valid = np.arange(T)[None, :] < length[:, None]
     # initial estimate at the first radar epoch: truth + N(0, P0), chi = 0
     x0 = X[:, 0] + rng.standard_normal((b, gm.N_X)) * np.sqrt(np.diag(P0))
     x0[:, 6] = 0.0
@@ -134,11 +146,24 @@ def noisy_batch(ts: TrackSet, idx, R, P0, rng: np.random.Generator):
             valid.T, tm(X), tm(U))
 
 
+def random_offsets(lengths, chunk: int, rng: np.random.Generator) -> np.ndarray:
+    """Start epochs: half of the tracks from their first epoch (the pull-up
+    into the glide), the others from an epoch drawn uniformly over the flight
+    (leaving at least one chunk). A batch then mixes every phase of flight, so
+    BatchNorm's batch statistics at one step are those of the data set (the
+    paper's shuffled 100-step segments), not of one phase."""
+    off = (rng.random(len(lengths)) * np.maximum(np.asarray(lengths) - chunk, 1)).astype(int)
+    return np.where(rng.random(len(lengths)) < 0.5, 0, off)
+
+
 def train(net: Lekf, variables, train_set: TrackSet, val_set: TrackSet, cfg: TrainConfig, P0,
-          log=print, time_limit_s: float | None = None):
-    """Train the L-EKF; returns (variables, history). History per epoch:
-    train loss (mean over chunks), validation loss (full tracks, fresh noise
-    of a fixed seed), wall time."""
+          log=print, time_limit_s: float | None = None, on_epoch=None):
+    """Train the L-EKF (``on_epoch(best_variables, history)`` after each
+    epoch, e.g. to checkpoint); returns (variables, history): the variables of the
+    epoch with the lowest validation loss (the untrained net, i.e. the EKF,
+    counts as epoch 0). History per epoch: train loss (mean over chunks),
+    validation loss (whole tracks from their first epoch, noise of a fixed
+    seed), wall time."""
     rng = np.random.default_rng(cfg.seed)
     optimizer = make_optimizer(cfg)
     opt_state = optimizer.init({k: v["params"] for k, v in variables.items()})
@@ -148,15 +173,23 @@ def train(net: Lekf, variables, train_set: TrackSet, val_set: TrackSet, cfg: Tra
     history = []
     t_start = time.monotonic()
     val = noisy_batch(val_set, np.arange(len(val_set.length)), np.asarray(net.R), P0, np.random.default_rng(cfg.seed + 1))
+
+    def val_loss_of(v):
+        x0, P0b, Z, DT, valid, X, U = val
+        return float(evaluate(v, net.init_carry(x0, P0b), Z, DT, valid, X, U)[0])
+
+    best = (val_loss_of(variables), 0, variables)
+    history.append({"epoch": 0, "train_loss": float("nan"), "val_loss": best[0], "wall_s": time.monotonic() - t_start})
+    log(f"epoch   0  (untrained = EKF)  val {best[0]:.3f}")
     for epoch in range(cfg.epochs):
         order = rng.permutation(n)
         losses = []
         for b0 in range(0, n - cfg.batch + 1, cfg.batch):
             idx = order[b0: b0 + cfg.batch]
-            idx = idx[np.argsort(train_set.length[idx])]
-            x0, P0b, Z, DT, valid, X, U = noisy_batch(train_set, idx, np.asarray(net.R), P0, rng)
+            off = random_offsets(train_set.length[idx], cfg.chunk, rng)
+            x0, P0b, Z, DT, valid, X, U = noisy_batch(train_set, idx, np.asarray(net.R), P0, rng, off)
             carry = net.init_carry(x0, P0b)
-            T = int(train_set.length[idx].max())
+            T = Z.shape[0]
             for c0 in range(0, T, cfg.chunk):
                 sl = slice(c0, min(c0 + cfg.chunk, T))
                 if sl.stop - sl.start < cfg.chunk:        # keep one compiled shape: pad the last chunk
@@ -172,15 +205,19 @@ def train(net: Lekf, variables, train_set: TrackSet, val_set: TrackSet, cfg: Tra
                 losses.append(float(loss))
             if time_limit_s is not None and time.monotonic() - t_start > time_limit_s:
                 break
-        x0, P0b, Z, DT, valid, X, U = val
-        val_loss = float(evaluate(variables, net.init_carry(x0, P0b), Z, DT, valid, X, U)[0])
+        val_loss = val_loss_of(variables)
+        if val_loss < best[0]:
+            best = (val_loss, epoch + 1, variables)
         history.append({"epoch": epoch + 1, "train_loss": float(np.mean(losses)) if losses else float("nan"),
                         "val_loss": val_loss, "wall_s": time.monotonic() - t_start})
         log(f"epoch {epoch + 1:3d}  train {history[-1]['train_loss']:.3f}  val {val_loss:.3f}  "
             f"({history[-1]['wall_s']:.0f} s)")
+        if on_epoch is not None:
+            on_epoch(best[2], history)
         if time_limit_s is not None and time.monotonic() - t_start > time_limit_s:
             break
-    return variables, history
+    log(f"best validation loss {best[0]:.3f} at epoch {best[1]}")
+    return best[2], history
 
 
 def init_carry_for(net: Lekf, x0, P0) -> LekfCarry:
