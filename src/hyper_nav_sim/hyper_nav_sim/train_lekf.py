@@ -97,7 +97,7 @@ def main(argv=None) -> int:
 
     ekf_test = loss_on(sets[2], variables, args.seed + 2)      # untrained L-EKF = EKF
     def checkpoint(best, history):
-        params_store.save(str(args.out) + ".partial", arch, jax.device_get(best),
+        params_store.save(str(args.out) + "_partial", arch, jax.device_get(best),
                           {"history": history, "data": {"data_seed": args.data_seed}, "n_parameters": 0})
 
     variables, history = train(net, variables, sets[0], sets[1], tcfg, cfg.P0,
