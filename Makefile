@@ -28,7 +28,7 @@ bench: setup
 	@$(ENV) python benchmarks/run_all.py
 
 train-lekf: setup
-	@$(ENV) ros2run hyper_nav_sim train_lekf
+	@$(ENV) ros2run hyper_nav_sim train_lekf --epochs 12
 
 repro-seed002: setup
 	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002

@@ -84,7 +84,7 @@ def t_chi_label(t_s, maneuvers, nominal_s: float) -> np.ndarray:
     out = np.full(np.shape(t_s), float(nominal_s))
     for m in maneuvers:
         if m["type"] in PERIODIC:
-            inside = (t_s >= m["t_start_s"]) & (t_s <= m["t_end_s"])
+            inside = (t_s >= m["t_start_s"]) & (t_s <= m.get("t_end_s", np.inf))
             out[inside] = 0.5 * m["period_s"]
     return out
 
