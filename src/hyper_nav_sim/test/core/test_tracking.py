@@ -7,7 +7,6 @@ import pathlib
 
 import jax
 import numpy as np
-import pytest
 from scipy.stats import chi2
 
 from hyper_nav_filter.core.tracking import filters
