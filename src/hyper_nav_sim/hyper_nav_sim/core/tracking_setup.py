@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from hyper_nav_filter.core.tracking import glide_model as gm
 from hyper_nav_filter.core.tracking.config import TrackerConfig
 
 from .imu_model import imu_epochs
@@ -67,6 +66,3 @@ def radar_measurements(sc: Scenario, rng: np.random.Generator) -> np.ndarray:
     given noise draw; ``sc.rng("radar")`` gives the radar node's stream."""
     return radar_model(sc).measure(sc.trajectory(), radar_epochs(sc), rng).as_array()
 
-
-def scaled(x_phys) -> np.ndarray:
-    return gm.to_scaled(x_phys)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import jax
 import jax.numpy as jnp
 
 from . import glide_model as gm
@@ -64,16 +63,3 @@ def ekf_step(model: gm.GlideModel, u, Q, R, carry: EkfCarry, z, dt, valid):
     K = jnp.where(valid, K, 0.0)
     x, P = update(x_pred, P_pred, K, y, R)
     return EkfCarry(x, P), {"x": x, "P": P, "u": u, "nis": jnp.where(valid, nis(y, S), 0.0)}
-
-
-def run(step, carry0, Z, DT, valid=None):
-    """Scan a step function ``step(carry, z, dt, valid) -> (carry, out)`` over
-    the measurements Z (N, 3) with intervals DT (N,) (DT[0]: from the initial
-    state's epoch to the first measurement)."""
-    if valid is None:
-        valid = jnp.ones(Z.shape[0], dtype=bool)
-
-    def body(c, inp):
-        return step(c, *inp)
-
-    return jax.lax.scan(body, carry0, (Z, DT, valid))

@@ -32,7 +32,7 @@ import numpy as np
 import optax
 
 from . import glide_model as gm
-from .lekf import Lekf, LekfCarry
+from .lekf import Lekf
 
 W_X = np.array([50.0, 1000.0, 1000.0, 0.5, 10000.0, 5000.0])      # h km, theta, phi rad, v m/s, gamma, psi rad
 W_U = np.array([1.0, 1.0, 0.01])
@@ -223,6 +223,3 @@ def train(net: Lekf, variables, train_set: TrackSet, val_set: TrackSet, cfg: Tra
     log(f"best validation loss {best[0]:.3f} at epoch {best[1]}")
     return best[2], history
 
-
-def init_carry_for(net: Lekf, x0, P0) -> LekfCarry:
-    return net.init_carry(x0, P0)
