@@ -6,7 +6,7 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help
+.PHONY: setup run test clean bench help train-lekf repro-seed002
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
@@ -14,6 +14,8 @@ help:
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
+	@echo "make train-lekf    - fly the seed 002 data set and train the L-EKF (writes the shipped parameter set)"
+	@echo "make repro-seed002 - seed 002 Table 2 / Figs. 6-8 over Monte Carlo radar noise (results/seed002)"
 
 setup:
 	@bash tools/setup.sh
@@ -26,6 +28,12 @@ test: setup
 
 bench: setup
 	@$(ENV) python benchmarks/run_all.py
+
+train-lekf: setup
+	@$(ENV) ros2run hyper_nav_sim train_lekf --epochs 12
+
+repro-seed002: setup
+	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002
 
 clean:
 	rm -rf build install log

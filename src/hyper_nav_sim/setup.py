@@ -34,6 +34,8 @@ setup(
             "report = hyper_nav_sim.report:main",
             "replay_filter = hyper_nav_sim.report:replay_main",
             "plot_scenarios = hyper_nav_sim.plot:main",
+            "train_lekf = hyper_nav_sim.train_lekf:main",
+            "repro_seed002 = hyper_nav_sim.repro_seed002:main",
         ],
     },
 )

@@ -67,12 +67,14 @@ SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag
 RAW_GNSS_TOPICS = ["gnss/raw", "gnss/ephemeris"]
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
+TRACKER_OUTPUTS = ["track/fix", "track/vel"]     # tracker_node: starts with a radar block (seed 002)
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
-               "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor")}
+               "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
+               "tracker": ("hyper_nav_filter", "tracker_node")}
 # ROS node names where they differ from the graph's process names
 ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
@@ -195,6 +197,7 @@ class Graph:
             else:
                 nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
                                                    if block in self.scenario.data) + ("fusion",)
+                nodes += ("tracker",) if "radar" in self.scenario.data else ()
         self.nodes = tuple(nodes)
         for name in self.nodes:
             executable(name)                     # unknown names fail here, with a suggestion
@@ -236,6 +239,8 @@ class Graph:
         """How many subscriptions the publishers of these topics must see."""
         n = 1 if any(self._recorded(t) for t in topics) else 0
         if "fusion" in self.nodes and self._fusion_inputs & set(topics):
+            n += 1
+        if "tracker" in self.nodes and "radar/track" in topics:
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
@@ -283,6 +288,11 @@ class Graph:
             # subscribers (extra_subscribers) are waited for by the time source
             p["min_output_subscribers"] = min(self._subscribers([t]) for t in FUSION_OUTPUTS)
             p["diagnostics_period_s"] = diag
+        elif name == "tracker":
+            from .core.tracking_setup import tracker_parameters
+            p = tracker_parameters(self.scenario)
+            p["radar.rate_hz"] = float(self.scenario["radar.rate_hz"])
+            p["min_output_subscribers"] = min(self._subscribers([t]) for t in TRACKER_OUTPUTS)
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}

@@ -100,7 +100,7 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers")
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth",
             "graph.diagnostics_period_s", "monitor.heartbeat_timeout_s", "monitor.startup_timeout_s",
@@ -459,6 +459,14 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 msg = str(exc)
                 raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
+    if "tracker" in data:
+        from hyper_nav_filter.core.tracking.config import TrackerConfig
+        try:
+            TrackerConfig.from_dict(data["tracker"])
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: {exc}") from None
+        if "radar" not in data:
+            raise ScenarioError(f"{source}: tracker: needs a radar block (the tracker's input)")
     raw = (data.get("gnss") or {}).get("raw")
     if raw is not None:
         from .gnss.receiver import GnssReceiverConfig
