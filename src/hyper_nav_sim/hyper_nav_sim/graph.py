@@ -37,7 +37,7 @@ import numpy as np
 import yaml
 from ament_index_python.packages import get_package_prefix
 
-from hyper_nav_filter.core.attitude import C_to_quat_xyzw
+from hyper_nav_filter.core.initial_state import state_values
 
 from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 
@@ -92,11 +92,9 @@ def fusion_parameters(sc: Scenario) -> dict:
     start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
     params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
     params.update(spec_to_params(sc.filter_source_specs()))
+    params.update({f"init.{k}": v for k, v in state_values(init).items()})
     params.update({
-        "init.t_s": float(init.t_s), "init.lat_deg": float(np.rad2deg(init.lat_rad)),
-        "init.lon_deg": float(np.rad2deg(init.lon_rad)), "init.alt_m": float(init.alt_m),
-        "init.vel_enu_mps": [float(x) for x in init.vel_enu_mps],
-        "init.q_b_enu_xyzw": [float(x) for x in C_to_quat_xyzw(init.C_b_n)],
+        "tf.magnetometer_position_b_m": [float(x) for x in sc["magnetometer.lever_arm_b_m"]],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
         "origin.alt_m": float(start.alt_m[0]), "qos.depth": int(sc["graph.qos_depth"]),
     })
@@ -146,7 +144,10 @@ class Graph:
                  "min_subscribers": self._subscribers(["truth/state"])}
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
-            p["min_output_subscribers"] = self._subscribers(FUSION_OUTPUTS)
+            # the least any output needs (the recorder on each, or a user's subscriber on some):
+            # waiting for the most would never end when a user subscribes to one output only
+            p["min_output_subscribers"] = min(self._subscribers([t]) for t in FUSION_OUTPUTS)
+            p["tf.min_subscribers"] = self._subscribers(["/tf"])
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"])}
         else:
