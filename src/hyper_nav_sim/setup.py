@@ -33,6 +33,7 @@ setup(
             "report = hyper_nav_sim.report:main",
             "replay_filter = hyper_nav_sim.report:replay_main",
             "plot_scenarios = hyper_nav_sim.plot:main",
+            "import_data = hyper_nav_sim.import_data:main",
         ],
     },
 )

@@ -169,6 +169,8 @@ def _args(argv, prog):
     if prog == "replay_filter":
         ap.add_argument("--smooth", action="store_true",
                         help="also run the fixed-interval RTS smoother and print its errors next to the filter's")
+        from . import replay_io
+        replay_io.add_arguments(ap)          # imported data, truth files, KF-GINS outputs
     return ap.parse_args(argv)
 
 
@@ -200,6 +202,9 @@ def replay_main(argv=None) -> int:
     """Offline: the fusion core over the bag's sensor messages."""
     from hyper_nav_filter.offline import run_offline
     args = _args(argv, "replay_filter")
+    from . import replay_io
+    if replay_io.handles(args):
+        return replay_io.main(args)
     sc = _scenario(args)
     reader = read_bag(args.bag)
     from .graph import fusion_inputs

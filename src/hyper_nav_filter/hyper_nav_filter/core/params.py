@@ -83,7 +83,8 @@ class ParamSpec:
             if self.length is not None and _is_number(value):
                 value = [value] * self.length           # one number for every axis
             if not isinstance(value, (list, tuple, np.ndarray)):
-                raise ConfigError(f"{name}: expected a list of numbers, got {value!r}")
+                what = f"a number or a list of {self.length} numbers" if self.length else "a list of numbers"
+                raise ConfigError(f"{name}: expected {what}, got {value!r}")
             if self.length is not None and len(value) != self.length:
                 raise ConfigError(f"{name}: expected {self.length} numbers, got {list(value)!r}")
             return tuple(self._number(v, name) for v in value)
@@ -178,7 +179,7 @@ def resolve_aliases(specs, values: dict, where: str = "") -> dict:
             continue
         names = ([s.name] if s.name in out else []) + [a.name for a in given]
         if len(names) > 1:
-            raise ConfigError(f"{where}{names[1]}: the same quantity as {where}{names[0]}; give only one of "
+            raise ConfigError(f"{where}{names[1]}: the same quantity as {names[0]}; give only one of "
                               f"{', '.join(names)}")
         a = given[0]
         out[s.name] = a.to_declared(a.spec.check(out.pop(a.name), where))
