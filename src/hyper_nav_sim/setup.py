@@ -34,6 +34,7 @@ setup(
             "replay_filter = hyper_nav_sim.report:replay_main",
             "plot_scenarios = hyper_nav_sim.plot:main",
             "import_data = hyper_nav_sim.import_data:main",
+            "foxglove_view = hyper_nav_sim.nodes.foxglove_view:main",
         ],
     },
 )

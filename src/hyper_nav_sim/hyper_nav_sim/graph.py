@@ -50,7 +50,7 @@ EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim"
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
-               "player": ("hyper_nav_sim", "player")}
+               "player": ("hyper_nav_sim", "player"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
 
 
 def executable(name: str) -> str:
@@ -105,7 +105,10 @@ class Graph:
     def __init__(self, scenario: str | Scenario = "default", record: str | os.PathLike | None = None,
                  nodes=None, overrides: dict | None = None,
                  extra_subscribers: dict[str, int] | None = None, node_params: dict | None = None,
-                 log_dir: str | os.PathLike | None = None, domain_id: int | None = None):
+                 log_dir: str | os.PathLike | None = None, domain_id: int | None = None,
+                 foxglove: dict | None = None):
+        """``foxglove``: start the Foxglove live view with these node parameters
+        ({"port": 8765, "host": "127.0.0.1"}; nodes/foxglove_view.py), None = off."""
         base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
         self._tmp = tempfile.TemporaryDirectory(prefix="hyper_nav_graph_")
         self.workdir = pathlib.Path(self._tmp.name)
@@ -123,6 +126,10 @@ class Graph:
             (os.getpid() % 100) + 1
         self.procs: dict[str, subprocess.Popen] = {}
         self._fusion_inputs = fusion_inputs(self.scenario)
+        if foxglove is not None:
+            self.nodes += ("foxglove",)
+            self.node_params = {**self.node_params, "foxglove": {"qos_depth": int(self.scenario["graph.qos_depth"]),
+                                                                 **foxglove, **self.node_params.get("foxglove", {})}}
 
     # ---- parameters ------------------------------------------------------------
     def _subscribers(self, topics) -> int:
@@ -255,6 +262,9 @@ def _main(argv=None) -> int:
                     help="override a scenario field, e.g. --set duration_s=60 (YAML value)")
     ap.add_argument("--nodes", default=None, help="comma-separated node names (default: every node the "
                     "scenario needs: truth, imu, gnss, mag, baro/radar when configured, fusion)")
+    ap.add_argument("--foxglove", nargs="?", const=8765, type=int, metavar="PORT",
+                    help="serve the run live to the Foxglove app (ws://127.0.0.1:PORT, default 8765)")
+    ap.add_argument("--foxglove-host", default="127.0.0.1", help="address the Foxglove server binds to")
     args = ap.parse_args(argv)
     overrides = {}
     for item in args.set:
@@ -266,11 +276,18 @@ def _main(argv=None) -> int:
         record = f"{record}_{stamp}"
         print(f"[run_graph] {args.record} exists; recording to {record}")
     t0 = time.monotonic()
+    foxglove = None if args.foxglove is None else {"port": args.foxglove, "host": args.foxglove_host}
     with Graph(args.scenario, record=record, nodes=args.nodes.split(",") if args.nodes else None, overrides=overrides,
-               log_dir=pathlib.Path(record).with_name(pathlib.Path(record).name + "_logs") if record else None) as g:
+               log_dir=pathlib.Path(record).with_name(pathlib.Path(record).name + "_logs") if record else None,
+               foxglove=foxglove) as g:
+        if foxglove:
+            print(f"[run_graph] Foxglove live view: ws://{args.foxglove_host}:{args.foxglove} "
+                  "(Foxglove app: Open connection -> Foxglove WebSocket)", flush=True)
         print(f"[run_graph] scenario {g.scenario.name}: {g.scenario['duration_s']} s at "
               f"{g.scenario['graph.real_time_factor']}x real time; nodes: {', '.join(g.nodes)}")
-        g.wait_until_done()
+        from .progress import ClockProgress                 # sim time, real-time factor, ETA every 10 s
+        with ClockProgress(g.domain_id, float(g.scenario["duration_s"])):
+            g.wait_until_done()
     print(f"[run_graph] graph finished in {time.monotonic() - t0:.1f} s wall")
     if record and args.report:
         from .report import main as report_main

@@ -193,8 +193,9 @@ def main(argv=None) -> int:
               "limits_rms_3d": limits, "paper_reference": _reference(sc), "delivery": delivery, "message_counts": run["counts"],
               "fusion_diagnostics": run["diagnostics"].get("hyper_nav_filter: fusion", {})}
     (bag / "report.json").write_text(json.dumps(report, indent=2))
-    plot(err, bag / "errors.png", f"{sc.name}: nav/state - truth/state")
-    print(f"[report] wrote {bag / 'report.json'} and {bag / 'errors.png'}")
+    from . import run_plots                                  # errors with +/-3 sigma, consistency, track
+    run_plots.write(bag, run, sc, errors)
+    print(f"[report] wrote {bag / 'report.json'}, errors.png, consistency.png and track.png in {bag}")
     return 0
 
 
