@@ -35,6 +35,7 @@ setup(
             "plot_scenarios = hyper_nav_sim.plot:main",
             "import_data = hyper_nav_sim.import_data:main",
             "foxglove_view = hyper_nav_sim.nodes.foxglove_view:main",
+            "mc_campaign = hyper_nav_sim.mc_campaign:main",
         ],
     },
 )
