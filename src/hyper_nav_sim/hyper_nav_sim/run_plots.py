@@ -212,4 +212,5 @@ def write(bag, run: dict, sc, errors_fn) -> dict:
     plot_track(run["truth"], run["nav"], fixes, gaps, bag / "track.png", f"{sc.name}: ground track and altitude")
     return {"inside_3sigma": {k: v.tolist() for k, v in a["inside_3sigma"].items()},
             "mean_nees": {k: float(v.mean()) for k, v in a["nees"].items()},
+            "median_nis": float(np.median(a["nis"])) if len(a["nis"]) else float("nan"), "n_nis": int(len(a["nis"])),
             "gnss_outages_s": gaps}
