@@ -111,3 +111,49 @@ def test_run_plots_show_errors_within_the_filters_bounds(recorded_run, tmp_path)
 def test_gnss_outages_from_fix_times():
     t = np.r_[np.arange(0.0, 10.0, 0.1), np.arange(25.0, 30.0, 0.1)]
     assert run_plots.outages(t, 0.0, 40.0) == [(pytest.approx(9.9), 25.0), (pytest.approx(29.9), 40.0)]
+
+
+def test_recorded_bag_as_a_foxglove_mcap_file(recorded_run, tmp_path):
+    """foxglove_view --bag ... --out: the same view of a recorded run, in a file the app opens."""
+    import json
+
+    from mcap.reader import make_reader
+
+    from hyper_nav_sim.foxglove_view import main
+    out = tmp_path / "view.mcap"
+    assert main(["--bag", str(recorded_run["bag"]), "--out", str(out)]) == 0
+    counts, first_err = {}, None
+    with open(out, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic == "/errors" and first_err is None:
+                first_err = json.loads(message.data)
+    assert counts["/errors"] == 1500 and counts["/tf"] == 1501          # every solution, plus /tf_static
+    assert counts["/map/truth"] == 301 and counts["/map/fused"] == 300   # 10 Hz map points over 30 s (truth from t = 0)
+    assert counts["/map/gnss"] == 300 and counts["/vehicle"] == 1
+    assert first_err["pos_sigma_enu_m"][2] == pytest.approx(10.0, rel=1e-3)   # the initial sigma of the filter
+
+
+def test_fusion_node_takes_initial_imu_errors_and_tf_parameters():
+    """init.* (core.initial_state, declared once) reach the filter; tf.* the static frames."""
+    import rclpy
+
+    from hyper_nav_filter.core import units
+    from hyper_nav_filter.nodes.fusion_node import FusionNode
+    ctx = rclpy.context.Context()
+    rclpy.init(context=ctx, args=["--ros-args", "-p", "sources:=[imu]", "-p", "sources.imu.type:=imu",
+                                  "-p", "sources.imu.topic:=imu/data_raw", "-p", "init.lat_deg:=30.0", "-p", "init.alt_m:=1000.0",
+                                  "-p", "init.gyro_bias_deg_per_hr:=[1.0, -2.0, 3.0]",
+                                  "-p", "init.accel_bias_ug:=[100.0, 0.0, -50.0]",
+                                  "-p", "filter.gate_probability:=1.0",
+                                  "-p", "tf.magnetometer_position_b_m:=[0.5, 0.0, 0.0]"])
+    try:
+        node = FusionNode(context=ctx)
+        kf = node.engine.kf
+        assert kf.state.gyro_bias_b_radps == pytest.approx(units.deg_per_hr([1.0, -2.0, 3.0]))
+        assert kf.state.accel_bias_b_mps2 == pytest.approx(units.ug([100.0, 0.0, -50.0]))
+        assert kf.cfg.gate_probability == 1.0 and node.pub_tf_static is not None
+        assert node.p["tf.magnetometer_position_b_m"] == (0.5, 0.0, 0.0)
+        node.destroy_node()
+    finally:
+        ctx.try_shutdown()

@@ -78,8 +78,9 @@ def message_class(type_name: str):
 
 
 class FusionNode(Node):
-    def __init__(self):
-        super().__init__("fusion")
+    def __init__(self, **node_kw):
+        """``node_kw``: rclpy Node arguments (e.g. ``context`` in tests)."""
+        super().__init__("fusion", **node_kw)
         cfg = declare_params(self, ALL_PARAMS, "filter.", "filter.")
         self.cfg = FilterConfig(**cfg)
         self.p = declare_params(self, NODE_PARAMS)
