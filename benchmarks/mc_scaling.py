@@ -41,10 +41,11 @@ def main() -> None:
         r = campaign(sc.data, args.runs, workers=w)
         rates[w] = r["runs_per_min"]
         print(f"workers {w}: {r['runs_per_min']:.2f} runs/min ({r['wall_s']:.1f} s for {args.runs} runs, "
-              f"{time.monotonic() - t0:.1f} s with cluster start-up); pos RMS 3D "
+              f"{time.monotonic() - t0:.1f} s with cluster start-up); {r['cpu_s_per_run']:.1f} CPU s per run, "
+              f"{r['cores_used']:.2f} cores used; pos RMS 3D "
               f"{r['stats']['summary']['pos']['rms_3d']:.3f} m, mean ANEES pos "
               f"{r['stats']['summary']['pos']['mean_anees']:.2f}")
-    print(f"speedup 2 workers / 1 worker: {rates[2] / rates[1]:.2f}")
+    print(f"speedup 2 workers / 1 worker: {rates[2] / rates[1]:.2f} (load average now {os.getloadavg()[0]:.1f})")
 
 
 if __name__ == "__main__":

@@ -69,8 +69,10 @@ def campaign(data: dict, runs: int, draws=montecarlo.DRAWS, grid_hz: float = 1.0
     wall = time.monotonic() - t0
     skip = float((data.get("report") or {}).get("skip_s", 0.0))
     results.sort(key=lambda r: r["k"])
+    cpu = float(sum(r["cpu_s"] for r in results))
     out = {"scenario": data["name"], "runs": runs, "draws": list(draws), "workers": n_workers,
-           "wall_s": wall, "runs_per_min": 60.0 * runs / wall,
+           "wall_s": wall, "runs_per_min": 60.0 * runs / wall, "cpu_s_per_run": cpu / runs,
+           "cores_used": cpu / wall,      # < workers when the machine is shared with other work
            "per_run": [montecarlo.run_metrics(r, skip) for r in results], "stats": montecarlo.aggregate(results, skip)}
     if keep_runs:
         out["results"] = results
@@ -188,7 +190,8 @@ def main(argv=None) -> int:
     progress = Progress("mc_campaign", total=args.runs, unit="runs", sim=False, interval_s=5.0)
     result = campaign(sc.data, args.runs, draws, args.grid_hz, args.workers, args.scheduler, progress=progress,
                       max_workers=args.max_workers)
-    progress.done(f"{result['runs_per_min']:.1f} runs/min on {result['workers']} worker(s)")
+    progress.done(f"{result['runs_per_min']:.1f} runs/min on {result['workers']} worker(s), "
+                  f"{result['cpu_s_per_run']:.1f} CPU s per run, {result['cores_used']:.2f} cores used")
     (out_dir / "campaign.json").write_text(json.dumps(_jsonable(result), indent=1))
     pngs = plot(result, out_dir)
     s = result["stats"]

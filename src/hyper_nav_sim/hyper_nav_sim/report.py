@@ -3,7 +3,8 @@
 ``report <bag>`` prints position (E/N/U), velocity and attitude error RMS and
 max after the scenario's ``report.skip_s``, checks that nothing was lost
 (publisher counts on /diagnostics against the messages in the bag), and
-writes ``report.json`` and ``errors.png`` into the bag directory.
+writes ``report.json`` and the run plots (``run_plots``: errors.png with the
+filter's +/-3 sigma, consistency.png, track.png) into the bag directory.
 ``replay_filter <bag>`` re-runs the fusion core offline over the bag's
 sensor messages and reports the same figures for that solution.
 """
@@ -119,25 +120,6 @@ def delivery_check(run: dict) -> dict:
                 counts = {t.lstrip("/"): c for t, c in run["counts"].items()}
                 out[topic] = {"published": int(val), "recorded": int(counts.get(topic, 0))}
     return out
-
-
-def plot(err: dict, path: pathlib.Path, title: str) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
-    for ax, (key, label) in zip(axes, [("pos_enu_m", "position error [m]"), ("vel_enu_mps", "velocity error [m/s]"),
-                                       ("att_enu_deg", "attitude error [deg]")]):
-        for i, axis in enumerate("ENU"):
-            ax.plot(err["t"], err[key][:, i], lw=0.8, label=axis)
-        ax.set_ylabel(label)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", ncol=3)
-    axes[-1].set_xlabel("sim time [s]")
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
 
 
 def _limits(sc) -> dict:
