@@ -57,7 +57,7 @@ import numpy as np
 import yaml
 from ament_index_python.packages import get_package_prefix
 
-from hyper_nav_filter.core.attitude import C_to_quat_xyzw
+from hyper_nav_filter.core.initial_state import state_values
 
 from .core.fields import suggestion
 from .core.scenario import Scenario, ScenarioError, check_override_key, known_fields, load_scenario, validate
@@ -74,7 +74,7 @@ EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim"
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
                "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
-               "tracker": ("hyper_nav_filter", "tracker_node")}
+               "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
 # ROS node names where they differ from the graph's process names
 ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
@@ -133,11 +133,9 @@ def fusion_parameters(sc: Scenario) -> dict:
     start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
     params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
     params.update(spec_to_params(sc.filter_source_specs()))
+    params.update({f"init.{k}": v for k, v in state_values(init).items()})
     params.update({
-        "init.t_s": float(init.t_s), "init.lat_deg": float(np.rad2deg(init.lat_rad)),
-        "init.lon_deg": float(np.rad2deg(init.lon_rad)), "init.alt_m": float(init.alt_m),
-        "init.vel_enu_mps": [float(x) for x in init.vel_enu_mps],
-        "init.q_b_enu_xyzw": [float(x) for x in C_to_quat_xyzw(init.C_b_n)],
+        "tf.magnetometer_position_b_m": [float(x) for x in sc["magnetometer.lever_arm_b_m"]],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
         "origin.alt_m": float(start.alt_m[0]), "qos.depth": int(sc["graph.qos_depth"]),
     })
@@ -175,12 +173,14 @@ class Graph:
                  extra_subscribers: dict[str, int] | None = None, node_params: dict | None = None,
                  log_dir: str | os.PathLike | None = None, domain_id: int | None = None,
                  replay: str | os.PathLike | None = None, monitor: bool = True,
-                 on_node_death: str = "raise"):
+                 on_node_death: str = "raise", foxglove: dict | None = None):
         """``scenario``: a name, path or Scenario (default: "default", or the
         replayed bag's ``scenario.yaml``). ``replay``: a bag to play into the
         graph instead of the simulator (nodes default to player + fusion).
         ``on_node_death``: "raise" (NodeDied from wait_until_done) or
-        "continue" (keep flying, see ``exits``)."""
+        "continue" (keep flying, see ``exits``). ``foxglove``: start the Foxglove
+        live view with these node parameters ({"port": 8765, "host": "127.0.0.1"};
+        nodes/foxglove_view.py), None = off."""
         if on_node_death not in ("raise", "continue"):
             raise ValueError(f"on_node_death: 'raise' or 'continue', got {on_node_death!r}")
         self.replay = pathlib.Path(replay) if replay else None
@@ -219,6 +219,10 @@ class Graph:
         self.t_start = None
         self._replay_topics = self._bag_topics() if self.replay else []
         self._fusion_inputs = fusion_inputs(self.scenario)
+        if foxglove is not None:
+            self.nodes += ("foxglove",)
+            self.node_params = {**self.node_params, "foxglove": {"qos_depth": int(self.scenario["graph.qos_depth"]),
+                                                                 **foxglove, **self.node_params.get("foxglove", {})}}
 
     # ---- parameters ------------------------------------------------------------
     def _recorded(self, topic: str) -> bool:
@@ -288,6 +292,7 @@ class Graph:
             # subscribers (extra_subscribers) are waited for by the time source
             p["min_output_subscribers"] = min(self._subscribers([t]) for t in FUSION_OUTPUTS)
             p["diagnostics_period_s"] = diag
+            p["tf.min_subscribers"] = self._subscribers(["/tf"])
         elif name == "tracker":
             from .core.tracking_setup import tracker_parameters
             p = tracker_parameters(self.scenario)
@@ -545,6 +550,9 @@ def _main(argv, state) -> int:
                     help="override a scenario field, e.g. --set duration_s=60 (YAML value; null removes it)")
     ap.add_argument("--nodes", default=None, help="comma-separated node names (default: every node the "
                     "scenario needs: truth, imu, gnss, mag, baro/radar when configured, fusion)")
+    ap.add_argument("--foxglove", nargs="?", const=8765, type=int, metavar="PORT",
+                    help="serve the run live to the Foxglove app (ws://127.0.0.1:PORT, default 8765)")
+    ap.add_argument("--foxglove-host", default="127.0.0.1", help="address the Foxglove server binds to")
     args = ap.parse_args(argv)
     overrides = {}
     for item in args.set:
@@ -560,18 +568,24 @@ def _main(argv, state) -> int:
     t0 = time.monotonic()
     if args.report and not record:
         raise ScenarioError("--report needs --record (the report is computed from the recorded bag)")
+    foxglove = None if args.foxglove is None else {"port": args.foxglove, "host": args.foxglove_host}
     g = Graph(args.scenario, record=record, nodes=args.nodes.split(",") if args.nodes else None, overrides=overrides,
               log_dir=pathlib.Path(record).with_name(pathlib.Path(record).name + "_logs") if record else None,
-              replay=args.replay, on_node_death="continue")
+              replay=args.replay, on_node_death="continue", foxglove=foxglove)
     state["graph"] = g
     interrupted = None
     try:
         with g:
+            if foxglove:
+                print(f"[run_graph] Foxglove live view: ws://{args.foxglove_host}:{args.foxglove} "
+                      "(Foxglove app: Open connection -> Foxglove WebSocket)", flush=True)
             what = f"replaying {args.replay}" if args.replay else f"{g.scenario['duration_s']} s"
             print(f"[run_graph] scenario {g.scenario.name}: {what} at "
                   f"{g.scenario['graph.real_time_factor']}x real time; nodes: {', '.join(g.nodes)}", flush=True)
             try:
-                g.wait_until_done()
+                from .progress import ClockProgress             # sim time, real-time factor, ETA every 10 s
+                with ClockProgress(g.domain_id, float(g.scenario["duration_s"])):
+                    g.wait_until_done()
             except Interrupted as exc:
                 interrupted = exc
                 g.stop_reason = f"{exc} after {time.monotonic() - t0:.1f} s"

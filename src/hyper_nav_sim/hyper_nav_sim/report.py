@@ -8,7 +8,8 @@ inputs (received and processed per input topic), no sensor stopped early,
 no input rejected, no node died, no ERROR on /diagnostics, accuracy within
 the scenario's limits. It ends with ``VERDICT: PASS`` or ``VERDICT: FAIL``
 and the reasons, writes ``report.json`` (``verdict``, ``failures``,
-``warnings`` and the details) and ``errors.png`` into the bag directory, and
+``warnings`` and the details) and the run plots (``run_plots``: errors.png
+with the filter's +/-3 sigma, consistency.png, track.png) into the bag directory, and
 exits 0 (PASS), 1 (FAIL) or 2 (no report possible: unreadable bag, no truth
 or no solution, bad scenario). The scenario is the bag's ``scenario.yaml``
 (written by ``run_graph``) unless ``--scenario`` is given.
@@ -155,25 +156,6 @@ def delivery_check(run: dict) -> dict:
     return out
 
 
-def plot(err: dict, path: pathlib.Path, title: str) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
-    for ax, (key, label) in zip(axes, [("pos_enu_m", "position error [m]"), ("vel_enu_mps", "velocity error [m/s]"),
-                                       ("att_enu_deg", "attitude error [deg]")]):
-        for i, axis in enumerate("ENU"):
-            ax.plot(err["t"], err[key][:, i], lw=0.8, label=axis)
-        ax.set_ylabel(label)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", ncol=3)
-    axes[-1].set_xlabel("sim time [s]")
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-
-
 def _limits(sc) -> dict:
     return {"pos_enu_m": sc["report.max_pos_rms_m"], "vel_enu_mps": sc["report.max_vel_rms_mps"],
             "att_enu_deg": sc["report.max_att_rms_deg"]}
@@ -204,6 +186,8 @@ def _args(argv, prog):
     if prog == "replay_filter":
         ap.add_argument("--smooth", action="store_true",
                         help="also run the fixed-interval RTS smoother and print its errors next to the filter's")
+        from . import replay_io
+        replay_io.add_arguments(ap)          # imported data, truth files, KF-GINS outputs
     return ap.parse_args(argv)
 
 
@@ -318,10 +302,12 @@ def _report(argv) -> int:
               "limits_rms_3d": _limits(sc), "paper_reference": _reference(sc), **out.details,
               "message_counts": run["counts"], "node_exits": exits,
               "fusion_diagnostics": run["diagnostics"].get("hyper_nav_filter: fusion", {})}
-    (bag / "report.json").write_text(json.dumps(report, indent=2))
     if err is not None:
-        plot(err, bag / "errors.png", f"{sc.name}: nav/state - truth/state")
-    print(f"[report] wrote {bag / 'report.json'}" + (f" and {bag / 'errors.png'}" if err is not None else ""))
+        from . import run_plots                              # errors with +/-3 sigma, consistency, track
+        report["plots"] = run_plots.write(bag, run, sc, errors)
+    (bag / "report.json").write_text(json.dumps(report, indent=2, default=float))
+    print(f"[report] wrote {bag / 'report.json'}" + (f", errors.png, consistency.png and track.png in {bag}"
+                                                     if err is not None else ""))
     return 0 if out.verdict == "PASS" else 1
 
 
@@ -330,6 +316,9 @@ def _replay(argv) -> int:
     args = _args(argv, "replay_filter")
     if not pathlib.Path(args.bag).exists():
         raise ReportError(f"{args.bag}: no such bag")
+    from . import replay_io
+    if replay_io.handles(args):
+        return replay_io.main(args)
     sc = _scenario(args)
     reader = read_bag(args.bag)
     from .graph import fusion_inputs

@@ -33,8 +33,10 @@ CORE_PARAMS = (
               choices=("j2", "normal")),
     ParamSpec("antenna_lever_arm_b_m", FLOATS, (0.0, 0.0, 0.0), "GNSS antenna position from the IMU, body FLU (m)",
               length=3),
-    ParamSpec("gate_probability", FLOAT, 0.9999, "chi-square gate probability of the innovation test",
-              lo=0.5, hi=1.0, lo_open=True, hi_open=True),
+    # 1.0 switches the gate off: chi2.ppf(1, dof) = inf, so every finite innovation is accepted
+    # (a NaN one is still refused); KF-GINS, for one, does not gate
+    ParamSpec("gate_probability", FLOAT, 0.9999, "chi-square gate probability of the innovation test; "
+              "1 = no gate (every finite innovation accepted)", lo=0.5, hi=1.0, lo_open=True),
     positive("reprocess_window_s", FLOAT, 3.0, "how far back (s) a late measurement can still be applied exactly"),
     nonneg("output_delay_s", FLOAT, 1.0, "solutions are released this far (s) behind the newest IMU epoch"),
     positive("output_rate_hz", FLOAT, 50.0, "solution output rate (Hz)"),

@@ -36,7 +36,7 @@ from collections import Counter
 import numpy as np
 
 from .config import FilterConfig
-from .eskf import ErrorStateKF, FilterSnapshot
+from .eskf import ErrorStateKF
 from .measurements import ModelContext, is_finite
 from .model_update import ModelUpdate
 from .nav_state import ImuSample, NavState

@@ -97,14 +97,14 @@ class MagnetometerErrors:
         """From the ``magnetometer:`` block; fields (all optional): noise_nT,
         hard_iron_b_nT [3], soft_iron [3x3, dimensionless], map_error_rms_nT,
         map_error_corr_length_m, map_error_n_waves, map_error_seed; rate_hz
-        and epoch_decimal_year are allowed and ignored. ValueError names a bad field."""
+        epoch_decimal_year and lever_arm_b_m are allowed and ignored. ValueError names a bad field."""
         d = {} if d is None else d
         if not isinstance(d, dict):
             raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
         known = CONFIG_FIELDS
         for k in d:
-            if k not in known | {"rate_hz", "epoch_decimal_year"}:
-                raise ValueError(unknown_field(f"{prefix}.", k, known | {"rate_hz", "epoch_decimal_year"}))
+            if k not in known | {"rate_hz", "epoch_decimal_year", "lever_arm_b_m"}:
+                raise ValueError(unknown_field(f"{prefix}.", k, known | {"rate_hz", "epoch_decimal_year", "lever_arm_b_m"}))
 
         def num(k, default, positive=False):
             v = d.get(k, default)

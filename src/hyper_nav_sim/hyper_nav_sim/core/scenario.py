@@ -74,6 +74,7 @@ SCHEMA = {
     "magnetometer.rate_hz": (NUM, True, None),
     "magnetometer.noise_nT": (NUM, True, None),
     "magnetometer.epoch_decimal_year": (NUM, True, None),
+    "magnetometer.lever_arm_b_m": (vec(3), False, [0.0, 0.0, 0.0]),      # its frame on /tf_static only
     "graph.real_time_factor": (NUM, False, 3.0),
     "graph.clock_rate_hz": (NUM, False, 50.0),
     "graph.truth_rate_hz": (NUM, False, 50.0),
@@ -282,7 +283,10 @@ class Scenario:
 
     def filter_initial_state(self):
         """The filter's initial nominal state: truth at t = 0 plus the
-        scenario's initial errors (what an alignment would hand over)."""
+        scenario's initial errors (what an alignment would hand over), with
+        the fields of an optional ``filter.initial_state`` block over it
+        (``hyper_nav_filter.core.initial_state``: any of position, velocity,
+        attitude, initial bias and scale-factor values)."""
         from hyper_nav_filter.core import earth
         from hyper_nav_filter.core.attitude import rotvec_to_C
         from hyper_nav_filter.core.nav_state import NavState
@@ -293,8 +297,9 @@ class Scenario:
         lon = earth.wrap_lon_rad(float(tr.lon_rad[0] + d_pos[0] / ((r_n + tr.alt_m[0]) * np.cos(tr.lat_rad[0]))))
         phi = np.deg2rad(np.asarray(self["filter.initial_error.att_enu_arcmin"], float) / 60.0)
         C = rotvec_to_C(-phi) @ tr.C_b_n[0]          # C_est = (I - [phi x]) C_true
-        return NavState(0.0, lat, lon, tr.alt_m[0] + d_pos[2],
-                        tr.vel_enu_mps[0] + np.asarray(self["filter.initial_error.vel_enu_mps"], float), C)
+        nav = NavState(0.0, lat, lon, tr.alt_m[0] + d_pos[2],
+                       tr.vel_enu_mps[0] + np.asarray(self["filter.initial_error.vel_enu_mps"], float), C)
+        return initial_state_block(self.data, nav)
 
     def filter_config(self) -> FilterConfig:
         return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
@@ -417,11 +422,29 @@ def validate(data, source: str = "<dict>") -> dict:
     except (ConfigError, TypeError) as exc:
         raise ScenarioError(f"{source}: filter.config: {exc}") from None
     try:
+        initial_state_block(data, None, check_only=True)
+    except ConfigError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+    try:
         make_sources(parse_sources(filter_sources(data)), cfg)
     except ConfigError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
     _validate_models(data, source)
     return data
+
+
+def initial_state_block(data: dict, base, check_only: bool = False):
+    """``base`` with the fields of ``filter.initial_state`` over it (or, with
+    check_only, just validate the block; errors name the field)."""
+    from hyper_nav_filter.core.initial_state import INIT_PARAMS, from_block
+    from hyper_nav_filter.core.params import check_all
+    block = (data.get("filter") or {}).get("initial_state")
+    if block is not None and not isinstance(block, dict):
+        raise ConfigError(f"filter.initial_state: expected a mapping, got {block!r}")
+    if check_only:
+        check_all(INIT_PARAMS, block or {}, "filter.initial_state.")
+        return None
+    return base if not block else from_block(block, base, "filter.initial_state.")
 
 
 def filter_sources(data: dict) -> dict:
