@@ -2,29 +2,39 @@
 # `make test` sets up and runs the whole suite.
 SHELL := /bin/bash
 SCENARIO ?= default
+RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help seed004
+.PHONY: setup run test clean bench help train-lekf repro-seed002 seed004
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
+	@echo "             (RUN_ARGS=\"--set duration_s=60\" passes more run_graph arguments; exits 1 if the report fails)"
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
 	@echo "make seed004 - reproduce seed 004 Tables 4-5 (virtual GNSS under lock loss) into bags/seed004_tables"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
+	@echo "make train-lekf    - fly the seed 002 data set and train the L-EKF (writes the shipped parameter set)"
+	@echo "make repro-seed002 - seed 002 Table 2 / Figs. 6-8 over Monte Carlo radar noise (results/seed002)"
 
 setup:
 	@bash tools/setup.sh
 
 run: setup
-	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report
+	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report $(RUN_ARGS)
 
 test: setup
 	@$(ENV) python -m pytest -c pytest.ini
 
 bench: setup
 	@$(ENV) python benchmarks/run_all.py
+
+train-lekf: setup
+	@$(ENV) ros2run hyper_nav_sim train_lekf --epochs 12
+
+repro-seed002: setup
+	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002
 
 seed004: setup
 	@$(ENV) ros2run hyper_nav_aiding reproduce_seed004 --out bags/seed004_tables $(ARGS)

@@ -91,7 +91,7 @@ def test_messages_carry_real_covariances_and_frames(recorded_run):
     for r in reader:
         first.setdefault(r.topic, deserialize(r.raw, r.msgtype))
     imu = first["/imu/data_raw"]
-    assert imu.orientation_covariance[0] == -1.0 and imu.header.frame_id == "base_link"
+    assert imu.orientation_covariance[0] == -1.0 and imu.header.frame_id == "imu_link"
     assert all(imu.angular_velocity_covariance[i] > 0 for i in (0, 4, 8))
     vel = first["/gnss/vel"]
     assert vel.header.frame_id == "enu" and vel.twist.covariance[0] == pytest.approx(0.01)

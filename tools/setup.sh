@@ -3,6 +3,7 @@
 # the colcon workspace. Idempotent: each step is skipped when its stamp is newer
 # than its inputs. See ../shared/ros2-on-pypi.md for the facts behind each step.
 set -euo pipefail
+AMENT_PREFIX_PATH=${AMENT_PREFIX_PATH:-}
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 VENV=$ROOT/.venv
@@ -32,11 +33,26 @@ fi
 # colcon build when any package source is newer than the last build.
 if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -print -quit)" ]; then
   echo "[setup] colcon build"
+  # tf2_msgs is not among the PyPI wheels: src/tf2_msgs builds it, but only
+  # where the environment does not provide it (a ROS install on
+  # AMENT_PREFIX_PATH, or the venv): a normal Jazzy install keeps its own.
+  skip=()
+  for prefix in ${AMENT_PREFIX_PATH//:/ } "$VENV"; do
+    case "$prefix" in "$ROOT"/install*) continue ;; esac
+    if [ -e "$prefix/share/ament_index/resource_index/packages/tf2_msgs" ]; then
+      echo "[setup] tf2_msgs provided by $prefix: not building src/tf2_msgs"
+      skip=(--packages-skip tf2_msgs)
+      rm -rf install/tf2_msgs build/tf2_msgs
+    fi
+  done
   # shellcheck disable=SC1091
   source "$VENV/bin/activate"
   export CMAKE_PREFIX_PATH="$VENV" AMENT_PREFIX_PATH="$VENV"
-  colcon --log-base build/log build --symlink-install --build-base build --install-base install \
+  colcon --log-base build/log build --symlink-install --build-base build --install-base install "${skip[@]}" \
     --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF \
     --event-handlers console_cohesion- summary+ 2>&1 | tail -n 20
   touch install/.stamp
+  # compile the filter's fast-path kernels into numba's on-disk cache now, not in a node's first callback
+  ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
+    python -m hyper_nav_filter.core.fast.warmup )
 fi

@@ -10,6 +10,7 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
     ],
+    package_data={package_name: ["core/tracking/trained/*.npz", "core/tracking/trained/*.json"]},
     install_requires=["setuptools"],
     zip_safe=True,
     maintainer="hyper-nav maintainers",
@@ -19,6 +20,7 @@ setup(
     entry_points={
         "console_scripts": [
             "fusion_node = hyper_nav_filter.nodes.fusion_node:main",
+            "tracker_node = hyper_nav_filter.nodes.tracker_node:main",
         ],
     },
 )

@@ -29,10 +29,18 @@ setup(
             "radar_node = hyper_nav_sim.nodes.radar_node:main",
             "recorder = hyper_nav_sim.nodes.recorder:main",
             "player = hyper_nav_sim.nodes.player:main",
+            "monitor = hyper_nav_sim.nodes.monitor:main",
             "run_graph = hyper_nav_sim.graph:main",
             "report = hyper_nav_sim.report:main",
             "replay_filter = hyper_nav_sim.report:replay_main",
             "plot_scenarios = hyper_nav_sim.plot:main",
+            "train_lekf = hyper_nav_sim.train_lekf:main",
+            "repro_seed002 = hyper_nav_sim.repro_seed002:main",
+            "import_data = hyper_nav_sim.import_data:main",
+            "foxglove_view = hyper_nav_sim.nodes.foxglove_view:main",
+            "mc_campaign = hyper_nav_sim.mc_campaign:main",
         ],
+        # pytest fixtures for users' own ROS tests (hyper_nav_graph, hyper_nav_domain_id)
+        "pytest11": ["hyper_nav = hyper_nav_sim.pytest_plugin"],
     },
 )

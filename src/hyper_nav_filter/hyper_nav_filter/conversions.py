@@ -78,4 +78,5 @@ def gnss_ephemeris(msg) -> BroadcastEphemeris:
         float(msg.sqrt_a_sqrtm), float(msg.e), float(msg.i0_rad), float(msg.omega0_rad), float(msg.omega_rad),
         float(msg.m0_rad), float(msg.delta_n_radps), float(msg.idot_radps), float(msg.omega_dot_radps),
         float(msg.cuc_rad), float(msg.cus_rad), float(msg.crc_m), float(msg.crs_m), float(msg.cic_rad),
-        float(msg.cis_rad), float(msg.af0_s), float(msg.af1_sps), float(msg.af2_sps2), float(msg.tgd_s))
+        float(msg.cis_rad), float(msg.af0_s), float(msg.af1_sps), float(msg.af2_sps2), float(msg.tgd_s),
+        iode=int(getattr(msg, "iode", -1)), health=int(getattr(msg, "health", 0)))

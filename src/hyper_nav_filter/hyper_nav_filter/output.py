@@ -115,3 +115,29 @@ def navsatfix_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -
         "position_covariance_type": 3,                   # COVARIANCE_TYPE_KNOWN
     })
     return d
+
+
+def transform_fields(sol: Solution, frames: OutputFrames) -> dict:
+    """geometry_msgs/TransformStamped of ``map -> base_link`` (REP-105) at the
+    solution epoch: the same pose as ``nav/odom``."""
+    pos, _, C_b_map = map_pose(sol, frames)
+    q = C_to_quat_xyzw(C_b_map)
+    d = _header(sol.t_s, frames.map)
+    d.update({"child_frame_id": frames.body,
+              "transform.translation.x": float(pos[0]), "transform.translation.y": float(pos[1]),
+              "transform.translation.z": float(pos[2]),
+              "transform.rotation.x": float(q[0]), "transform.rotation.y": float(q[1]),
+              "transform.rotation.z": float(q[2]), "transform.rotation.w": float(q[3])})
+    return d
+
+
+def static_transform_fields(t_s: float, parent: str, child: str, position_m) -> dict:
+    """A sensor frame fixed in the body: translation = its lever arm (parent
+    axes, m), axes parallel to the parent's."""
+    d = _header(t_s, parent)
+    d.update({"child_frame_id": child,
+              "transform.translation.x": float(position_m[0]), "transform.translation.y": float(position_m[1]),
+              "transform.translation.z": float(position_m[2]),
+              "transform.rotation.x": 0.0, "transform.rotation.y": 0.0, "transform.rotation.z": 0.0,
+              "transform.rotation.w": 1.0})
+    return d

@@ -8,6 +8,7 @@ import time
 import rclpy
 import rclpy.executors
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
@@ -58,8 +59,9 @@ def run_node(node_factory, args=None, linger_s: float = 0.3) -> None:
     SIGINT/SIGTERM only set a flag (rclpy's own handlers would invalidate the
     context at once): the loop ends, ``node.on_shutdown()`` (if any) still
     publishes with a valid context (e.g. the fusion node's final
-    /diagnostics), and the node spins ``linger_s`` more so reliable DDS can
-    deliver it before the process exits."""
+    /diagnostics), and the node waits up to ``linger_s`` for reliable DDS to
+    deliver it before the process exits. It does not spin again: a callback
+    run after the final status would publish messages its counts miss."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -74,8 +76,10 @@ def run_node(node_factory, args=None, linger_s: float = 0.3) -> None:
         if rclpy.ok() and hasattr(node, "on_shutdown"):
             node.on_shutdown()
             t_end = time.monotonic() + linger_s
-            while time.monotonic() < t_end:
-                executor.spin_once(timeout_sec=0.05)
+            for pub in node.publishers:
+                left = t_end - time.monotonic()
+                if left <= 0 or not pub.wait_for_all_acked(Duration(seconds=left)):
+                    break
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
         pass
     finally:

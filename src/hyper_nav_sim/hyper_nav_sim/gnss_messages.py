@@ -22,4 +22,5 @@ def fill_gnss_ephemeris(msg, eph, t_s: float):
     msg.cuc_rad, msg.cus_rad, msg.crc_m, msg.crs_m = float(eph.cuc), float(eph.cus), float(eph.crc), float(eph.crs)
     msg.cic_rad, msg.cis_rad = float(eph.cic), float(eph.cis)
     msg.af0_s, msg.af1_sps, msg.af2_sps2, msg.tgd_s = float(eph.af0), float(eph.af1), float(eph.af2), float(eph.tgd)
+    msg.iode, msg.health = int(eph.iode), int(eph.health)
     return msg

@@ -22,6 +22,16 @@ def all_scenario_names() -> list[str]:
     return sorted(names)
 
 
+def ground_track_deg(lon_rad, lat_rad) -> tuple[np.ndarray, np.ndarray]:
+    """(lon, lat) in degrees for plotting, longitude in [-180, 180), with a
+    break (NaN) where the track crosses 180 deg instead of a line across the map."""
+    from hyper_nav_filter.core.earth import wrap_lon_rad
+    lon = np.rad2deg(wrap_lon_rad(np.asarray(lon_rad, float)))
+    lat = np.rad2deg(np.asarray(lat_rad, float))
+    cut = np.flatnonzero(np.abs(np.diff(lon)) > 180.0) + 1
+    return np.insert(lon, cut, np.nan), np.insert(lat, cut, np.nan)
+
+
 def plot_scenario(name: str, out_dir: pathlib.Path, step_s: float = 0.5) -> pathlib.Path:
     import matplotlib
     matplotlib.use("Agg")
@@ -33,8 +43,9 @@ def plot_scenario(name: str, out_dir: pathlib.Path, step_s: float = 0.5) -> path
     speed = np.linalg.norm(tr.vel_enu_mps, axis=1)
     load_g = np.linalg.norm(tr.f_b_mps2, axis=1) / 9.80665
     fig, ax = plt.subplots(2, 2, figsize=(12, 8))
-    ax[0, 0].plot(np.rad2deg(tr.lon_rad), np.rad2deg(tr.lat_rad))
-    ax[0, 0].plot(np.rad2deg(tr.lon_rad[0]), np.rad2deg(tr.lat_rad[0]), "go", label="start")
+    lon_deg, lat_deg = ground_track_deg(tr.lon_rad, tr.lat_rad)
+    ax[0, 0].plot(lon_deg, lat_deg)
+    ax[0, 0].plot(lon_deg[0], lat_deg[0], "go", label="start")
     ax[0, 0].set_xlabel("longitude [deg]")
     ax[0, 0].set_ylabel("latitude [deg]")
     ax[0, 0].set_title("ground track")

@@ -1,11 +1,20 @@
 """Accuracy report of a recorded run: ``nav/state`` against ``truth/state``.
 
 ``report <bag>`` prints position (E/N/U), velocity and attitude error RMS and
-max after the scenario's ``report.skip_s``, checks that nothing was lost
-(publisher counts on /diagnostics against the messages in the bag), and
-writes ``report.json`` and ``errors.png`` into the bag directory.
+max after the scenario's ``report.skip_s``, and the checks that decide its
+verdict (``core/run_check.py``): every expected solution epoch scored (gaps
+named), nothing lost between publishers, the recorder and the fusion node's
+inputs (received and processed per input topic), no sensor stopped early,
+no input rejected, no node died, no ERROR on /diagnostics, accuracy within
+the scenario's limits. It ends with ``VERDICT: PASS`` or ``VERDICT: FAIL``
+and the reasons, writes ``report.json`` (``verdict``, ``failures``,
+``warnings`` and the details) and the run plots (``run_plots``: errors.png
+with the filter's +/-3 sigma, consistency.png, track.png) into the bag directory, and
+exits 0 (PASS), 1 (FAIL) or 2 (no report possible: unreadable bag, no truth
+or no solution, bad scenario). The scenario is the bag's ``scenario.yaml``
+(written by ``run_graph``) unless ``--scenario`` is given.
 ``replay_filter <bag>`` re-runs the fusion core offline over the bag's
-sensor messages and reports the same figures for that solution.
+sensor messages and reports the same figures and checks for that solution.
 """
 from __future__ import annotations
 
@@ -21,7 +30,12 @@ from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, quat_xyzw_to_C
 from hyper_nav_filter.conversions import stamp_to_s
 
+from .core import run_check
 from .core.bag import deserialize, read_bag
+
+
+class ReportError(Exception):
+    """No report can be made (exit code 2); the message says why."""
 
 
 def states_from_msgs(msgs) -> dict:
@@ -53,6 +67,16 @@ def errors(nav: dict, truth: dict) -> dict:
     vel = nav["vel"][ni] - truth["vel"][ti]
     att = np.array([attitude_error_n_rad(nav["C"][a], truth["C"][b]) for a, b in zip(ni, ti)])
     return {"t": nav["t"][ni], "pos_enu_m": pos, "vel_enu_mps": vel, "att_enu_deg": np.rad2deg(att)}
+
+
+def effective_skip_s(skip_s: float, duration_s: float) -> tuple[float, str | None]:
+    """``report.skip_s``, or half the run when the run is not longer than it
+    (a 20 s bag with the default 30 s window); the note says so."""
+    if skip_s < duration_s:
+        return skip_s, None
+    eff = 0.5 * duration_s
+    return eff, (f"report.skip_s = {skip_s:g} s is not inside the {duration_s:g} s run: "
+                 f"scoring from t >= {eff:g} s (half the run)")
 
 
 def summarize(err: dict, skip_s: float) -> dict:
@@ -93,9 +117,11 @@ def format_table(summary: dict, limits: dict | None = None, reference: dict | No
 
 def load_run(bag_path) -> dict:
     """Read a recorded run: nav and truth states, per-topic counts, the last
-    diagnostics of each node, and whether the bag was truncated."""
+    diagnostics of each status name and of each node, the timeline of every
+    status (t, level, message, values), whether the bag was truncated, and
+    ``run_graph.json`` (node exits) when it is there."""
     reader = read_bag(bag_path)
-    nav, truth, last_diag = [], [], {}
+    nav, truth, last_diag, by_node, timeline = [], [], {}, {}, {}
     for rec in reader:
         topic = rec.topic.lstrip("/")
         if topic == "nav/state":
@@ -104,13 +130,22 @@ def load_run(bag_path) -> dict:
             truth.append(deserialize(rec.raw, rec.msgtype))
         elif topic == "diagnostics":
             for st in deserialize(rec.raw, rec.msgtype).status:
-                last_diag[st.name] = {kv.key: kv.value for kv in st.values}
+                values = {kv.key: kv.value for kv in st.values}
+                last_diag[st.name] = values
+                if st.hardware_id and not st.name.startswith(run_check.MONITOR_PREFIX):
+                    by_node[st.hardware_id] = values
+                t = float(values.get("sim_time_s") or rec.t_ns * 1e-9)
+                timeline.setdefault(st.name, []).append((t, run_check.level_of(st.level), st.message, values))
+    info = pathlib.Path(bag_path) / "run_graph.json"
+    graph = json.loads(info.read_text()) if info.is_file() else {}
     return {"nav": nav, "truth": truth, "counts": dict(reader.counts), "diagnostics": last_diag,
-            "truncated": reader.truncated, "error": reader.error}
+            "by_node": by_node, "timeline": timeline, "truncated": reader.truncated, "error": reader.error,
+            "run_graph": graph}
 
 
 def delivery_check(run: dict) -> dict:
-    """Published (from each node's last diagnostics) against recorded counts."""
+    """Published (from each node's last diagnostics) against recorded counts
+    (the simple view; the report's verdict uses ``run_check.delivery_rows``)."""
     out = {}
     for name, values in run["diagnostics"].items():
         for key, val in values.items():
@@ -119,25 +154,6 @@ def delivery_check(run: dict) -> dict:
                 counts = {t.lstrip("/"): c for t, c in run["counts"].items()}
                 out[topic] = {"published": int(val), "recorded": int(counts.get(topic, 0))}
     return out
-
-
-def plot(err: dict, path: pathlib.Path, title: str) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
-    for ax, (key, label) in zip(axes, [("pos_enu_m", "position error [m]"), ("vel_enu_mps", "velocity error [m/s]"),
-                                       ("att_enu_deg", "attitude error [deg]")]):
-        for i, axis in enumerate("ENU"):
-            ax.plot(err["t"], err[key][:, i], lw=0.8, label=axis)
-        ax.set_ylabel(label)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", ncol=3)
-    axes[-1].set_xlabel("sim time [s]")
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
 
 
 def _limits(sc) -> dict:
@@ -151,10 +167,10 @@ def _reference(sc) -> dict:
 
 
 def _scenario(args):
-    from .graph import apply_overrides
+    from .graph import apply_overrides, bag_scenario
     from .core.scenario import load_scenario
     import tempfile
-    sc = load_scenario(args.scenario)
+    sc = load_scenario(args.scenario or bag_scenario(args.bag))
     overrides = {k: yaml.safe_load(v) for k, _, v in (s.partition("=") for s in args.set)}
     if overrides:
         sc = apply_overrides(sc, overrides, pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_report_")))
@@ -164,63 +180,179 @@ def _scenario(args):
 def _args(argv, prog):
     ap = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
     ap.add_argument("bag")
-    ap.add_argument("--scenario", default="default")
+    ap.add_argument("--scenario", default=None, help="scenario name or YAML path (default: the bag's "
+                    "scenario.yaml, else 'default')")
     ap.add_argument("--set", action="append", default=[])
     if prog == "replay_filter":
         ap.add_argument("--smooth", action="store_true",
                         help="also run the fixed-interval RTS smoother and print its errors next to the filter's")
+        from . import replay_io
+        replay_io.add_arguments(ap)          # imported data, truth files, KF-GINS outputs
     return ap.parse_args(argv)
 
 
+def _guarded(prog, body, argv) -> int:
+    """Run a command body; a report that cannot be made is a message and exit 2."""
+    from .core.scenario import ScenarioError
+    try:
+        return body(argv)
+    except (ReportError, ScenarioError, OSError) as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
+
+
 def main(argv=None) -> int:
-    args = _args(argv, "report")
-    bag = pathlib.Path(args.bag)
-    sc = _scenario(args)
-    run = load_run(bag)
-    if run["truncated"]:
-        print(f"[report] WARNING: bag is truncated ({run['error']}); reporting on what was readable")
-    err = errors(states_from_msgs(run["nav"]), states_from_msgs(run["truth"]))
-    summary = summarize(err, sc["report.skip_s"])
-    delivery = delivery_check(run)
-    limits = _limits(sc)
-    print(format_table(summary, limits, _reference(sc)))
-    lost = {t: d for t, d in delivery.items() if d["published"] != d["recorded"]}
-    print(f"delivery: {len(delivery)} topics checked, "
-          + ("nothing lost" if not lost else f"MISMATCH {lost}"))
-    report = {"scenario": sc.name, "bag": str(bag), "truncated": run["truncated"], "summary": summary,
-              "limits_rms_3d": limits, "paper_reference": _reference(sc), "delivery": delivery, "message_counts": run["counts"],
-              "fusion_diagnostics": run["diagnostics"].get("hyper_nav_filter: fusion", {})}
-    (bag / "report.json").write_text(json.dumps(report, indent=2))
-    plot(err, bag / "errors.png", f"{sc.name}: nav/state - truth/state")
-    print(f"[report] wrote {bag / 'report.json'} and {bag / 'errors.png'}")
-    return 0
+    return _guarded("report", _report, argv)
 
 
 def replay_main(argv=None) -> int:
     """Offline: the fusion core over the bag's sensor messages."""
+    return _guarded("replay_filter", _replay, argv)
+
+
+def _expected(sc, skip_s: float, end_s: float) -> np.ndarray:
+    cfg = sc.filter_config()
+    return run_check.expected_scored_epochs(end_s, sc["imu.rate_hz"], cfg.output_rate_hz,
+                                            sc["graph.truth_rate_hz"], skip_s)
+
+
+def _accuracy(summary: dict, limits: dict, out: run_check.Outcome) -> None:
+    for key, lim in limits.items():
+        if lim is not None and not summary[key]["rms_3d"] < lim:
+            out.failures.append(f"accuracy: {key} RMS 3D {summary[key]['rms_3d']:.4g} not below the limit {lim:g}")
+
+
+def _print_verdict(out: run_check.Outcome, prog: str) -> None:
+    for w in out.warnings:
+        print(f"[{prog}] warning: {w}")
+    for f in out.failures:
+        print(f"[{prog}] FAIL: {f}")
+    reasons = sorted({f.split(":", 1)[0] for f in out.failures})
+    print(f"VERDICT: {out.verdict}" + (f" ({len(out.failures)} failure(s): {', '.join(reasons)})"
+                                       if out.failures else " (nothing lost, every expected epoch scored)"))
+
+
+def _score(nav_states: dict, truth_states: dict, sc, out: run_check.Outcome, end_s: float | None = None):
+    """Errors, summary and the epoch check up to ``end_s`` (default: the
+    scenario's end); (err, summary) or (None, None) without a solution."""
+    if len(truth_states["t"]) == 0:
+        raise ReportError("no truth/state in the bag: nothing to score against")
+    end_s = sc["duration_s"] if end_s is None else end_s
+    skip, note = effective_skip_s(sc["report.skip_s"], end_s)
+    if note:
+        out.warnings.append(note)
+    # every solution epoch of the run must be there (a gap before the accuracy window is lost data too)
+    run_check.epoch_check(nav_states["t"], _expected(sc, 0.0, end_s), out)
+    try:
+        err = errors(nav_states, truth_states)
+        summary = summarize(err, skip)
+    except ValueError as exc:
+        out.failures.append(f"accuracy: not computed: {exc}")
+        return None, None
+    _accuracy(summary, _limits(sc), out)
+    return err, summary
+
+
+def _report(argv) -> int:
+    args = _args(argv, "report")
+    bag = pathlib.Path(args.bag)
+    if not bag.exists():
+        raise ReportError(f"{bag}: no such bag")
+    sc = _scenario(args)
+    run = load_run(bag)
+    out = run_check.Outcome()
+    if not run["counts"]:
+        raise ReportError(f"{bag}: no readable messages" + (f" ({run['error']})" if run["error"] else ""))
+    if run["truncated"]:
+        print(f"[report] WARNING: bag is truncated ({run['error']}); reporting on what was readable")
+        out.failures.append(f"bag: truncated: {run['error']}")
+    nav, truth = states_from_msgs(run["nav"]), states_from_msgs(run["truth"])
+    rg = run["run_graph"]
+    end_s = None
+    if rg.get("interrupted"):                # score what was flown; the run itself fails
+        flown = nav["t"] if len(nav["t"]) else truth["t"]
+        end_s = float(flown.max()) if len(flown) else 0.0
+        out.failures.append(f"run: interrupted by {rg['interrupted']} ({rg.get('stopped_by', '')}); "
+                            f"scored what was flown, up to t = {end_s:.1f} s of {sc['duration_s']:g} s")
+    err, summary = _score(nav, truth, sc, out, end_s)
+    if summary is not None:
+        print(format_table(summary, _limits(sc), _reference(sc)))
+    exits = run["run_graph"].get("exits", [])
+    dead = {e["ros_name"] for e in exits}
+    for name, events in run["timeline"].items():
+        if name.startswith(run_check.MONITOR_PREFIX + "node ") and events and events[-1][1] == 2:
+            dead.add(name[len(run_check.MONITOR_PREFIX + "node "):])
+    rows = run_check.delivery_rows(run["by_node"], run["counts"], out, dead)
+    if not rg.get("interrupted"):
+        run_check.schedule_rows(run["by_node"], out)
+    run_check.input_truncated(run["by_node"], out)
+    fusion = run["by_node"].get(run_check.FUSION_NODE, {})
+    run_check.rejected_inputs(fusion, out)
+    run_check.bridged_gaps(fusion, out)
+    run_check.status_faults(run["timeline"], out, exits)
+    ep = out.details["epochs"]
+    print(f"epochs: {ep['scored']} of {ep['expected']} expected solution epochs (with truth) published")
+    print(f"delivery: {len(rows)} topics checked: " + ", ".join(
+        f"{t} {r.get('published', '-')}/{r['recorded']}" + "".join(
+            f"/{v}" for k, v in sorted(r.items()) if k.startswith(("received_by", "processed_by")))
+        for t, r in sorted(rows.items())) + "  (published/recorded[/processed/received at fusion])")
+    _print_verdict(out, "report")
+    report = {"scenario": sc.name, "bag": str(bag), "verdict": out.verdict, "failures": out.failures,
+              "warnings": out.warnings, "truncated": run["truncated"], "summary": summary,
+              "limits_rms_3d": _limits(sc), "paper_reference": _reference(sc), **out.details,
+              "message_counts": run["counts"], "node_exits": exits,
+              "fusion_diagnostics": run["diagnostics"].get("hyper_nav_filter: fusion", {})}
+    if err is not None:
+        from . import run_plots                              # errors with +/-3 sigma, consistency, track
+        report["plots"] = run_plots.write(bag, run, sc, errors)
+    (bag / "report.json").write_text(json.dumps(report, indent=2, default=float))
+    print(f"[report] wrote {bag / 'report.json'}" + (f", errors.png, consistency.png and track.png in {bag}"
+                                                     if err is not None else ""))
+    return 0 if out.verdict == "PASS" else 1
+
+
+def _replay(argv) -> int:
     from hyper_nav_filter.offline import run_offline
     args = _args(argv, "replay_filter")
+    if not pathlib.Path(args.bag).exists():
+        raise ReportError(f"{args.bag}: no such bag")
+    from . import replay_io
+    if replay_io.handles(args):
+        return replay_io.main(args)
     sc = _scenario(args)
     reader = read_bag(args.bag)
     from .graph import fusion_inputs
     inputs = fusion_inputs(sc) | {"truth/state"}
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader if r.topic.lstrip("/") in inputs]
+    out = run_check.Outcome()
+    if not records:
+        raise ReportError(f"{args.bag}: no readable sensor messages" + (f" ({reader.error})" if reader.error else ""))
     if reader.truncated:
         print(f"[replay_filter] WARNING: bag is truncated ({reader.error}); replaying what was readable")
+        out.failures.append(f"bag: truncated: {reader.error}")
+    # final: at the end of the bag every solution is released (as the live node does at shutdown)
     sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sources=sc.filter_sources(),
-                            final=args.smooth, keep_history=args.smooth)
+                            final=True, keep_history=args.smooth)
     truth = states_from_msgs([m for t, m in records if t.lstrip("/") == "truth/state"])
-    summary = summarize(errors(states_from_solutions(sols), truth), sc["report.skip_s"])
-    print(format_table(summary, _limits(sc), _reference(sc)))
-    if args.smooth:
+    _, summary = _score(states_from_solutions(sols), truth, sc, out)
+    if summary is not None:
+        print(format_table(summary, _limits(sc), _reference(sc)))
+    n_imu = sum(1 for t, _ in records if t.lstrip("/") == "imu/data_raw")
+    if eng.counters["imu_accepted"] != n_imu:
+        out.failures.append(f"inputs: imu/data_raw: {n_imu} in the bag, {eng.counters['imu_accepted']} "
+                            f"accepted by the filter")
+    run_check.rejected_inputs(dict(eng.counters), out)
+    run_check.bridged_gaps(dict(eng.counters), out)
+    if args.smooth and summary is not None:
         from hyper_nav_filter.offline import smooth
-        sm = summarize(errors(states_from_solutions(smooth(eng)), truth), sc["report.skip_s"])
+        sm = summarize(errors(states_from_solutions(smooth(eng)), truth), summary["skip_s"])
         print("fixed-interval RTS smoother over the same pass:")
         print(format_table(sm, _limits(sc), _reference(sc)))
         print("filter vs smoother, RMS 3D: " + ", ".join(
             f"{k} {summary[k]['rms_3d']:.4g} -> {sm[k]['rms_3d']:.4g}" for k in ("pos_enu_m", "vel_enu_mps", "att_enu_deg")))
     print(f"engine counters: {dict(eng.counters)}")
-    return 0
+    _print_verdict(out, "replay_filter")
+    return 0 if out.verdict == "PASS" else 1
 
 
 if __name__ == "__main__":

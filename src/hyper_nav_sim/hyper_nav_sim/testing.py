@@ -21,12 +21,16 @@ import time
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
-from hyper_nav_filter.ros_util import publisher_qos
+from hyper_nav_filter.ros_util import latched_qos, publisher_qos
 
 
 class TopicCollector:
-    def __init__(self, topics: dict, domain_id: int | None = None, depth: int = 2000, name: str = "collector"):
+    def __init__(self, topics: dict, domain_id: int | None = None, depth: int = 2000, name: str = "collector",
+                 latched=()):
+        """``latched``: topics published transient-local (``/tf_static``,
+        ``gnss/ephemeris``), subscribed so, to get what was sent before."""
         self.topics = dict(topics)
+        self.latched = set(latched)
         self.domain_id = domain_id
         self.depth = depth
         self.name = name
@@ -38,7 +42,8 @@ class TopicCollector:
         rclpy.init(context=self.context, domain_id=self.domain_id)
         self.node = rclpy.create_node(self.name, context=self.context)
         for topic, cls in self.topics.items():
-            self.node.create_subscription(cls, topic, self._callback(topic), publisher_qos(self.depth))
+            qos = latched_qos(self.depth) if topic in self.latched else publisher_qos(self.depth)
+            self.node.create_subscription(cls, topic, self._callback(topic), qos)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, daemon=True)

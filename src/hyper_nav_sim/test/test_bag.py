@@ -151,7 +151,7 @@ def test_flushed_messages_survive_a_crash(tmp_path):
         writer.write("/imu", IMU, T0 + i, bag.serialize(imu(i), IMU))
         if i == 99:
             writer.flush()
-    writer._writer.abort()  # like a killed recorder: file closed, no summary, no metadata.yaml
+    writer.abort()  # like a killed recorder: file closed, no summary, no metadata.yaml
     reader = bag.read_bag(path)
     records = list(reader)
     assert reader.truncated and "footer" in reader.error
@@ -174,3 +174,54 @@ def test_typestore_has_project_messages():
     store = bag.typestore()
     assert store is bag.typestore()
     assert NAV in store.types and IMU in store.types
+
+
+def test_written_as_rosbag2_jazzy_with_qos_and_crcs(tmp_path):
+    """metadata.yaml: version 9, ros_distro jazzy, offered QoS per topic; MCAP:
+    profile ros2, channel metadata offered_qos_profiles + topic_type_hash,
+    non-zero chunk CRCs that the mcap reader verifies, a rosbag2 metadata record."""
+    import yaml
+    from mcap.reader import make_reader
+    path = tmp_path / "bag"
+    latched = bag.qos_profile(durability="transient_local", depth=200)
+    with bag.BagWriter(path) as w:
+        w.add_topic("/gnss/ephemeris", STRING, [latched])
+        w.add_topic("/imu/data_raw", IMU, [bag.qos_profile(depth=2000)])
+        for i in range(50):
+            w.write("/imu/data_raw", IMU, T0 + i, bag.serialize(imu(i), IMU))
+        w.write("/gnss/ephemeris", STRING, T0 + 60, bag.serialize(bag.typestore().types[STRING](data="eph"), STRING))
+        w.write("/note", STRING, T0 + 61, bag.serialize(bag.typestore().types[STRING](data="n"), STRING))
+    info = yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["ros_distro"] == "jazzy" and info["version"] == 9 and info["storage_identifier"] == "mcap"
+    topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
+    assert topics["/gnss/ephemeris"]["topic_metadata"]["offered_qos_profiles"] == [latched]
+    assert topics["/imu/data_raw"]["message_count"] == 50
+    assert topics["/note"]["topic_metadata"]["offered_qos_profiles"] == []
+    assert topics["/imu/data_raw"]["topic_metadata"]["type_description_hash"].startswith("RIHS01_")
+    with (path / "bag.mcap").open("rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        assert reader.get_header().profile == "ros2"
+        assert sum(1 for _ in reader.iter_messages()) == 52          # CRCs verified while reading
+        assert [m.name for m in reader.iter_metadata()] == ["rosbag2"]
+    assert summary.statistics.message_count == 52
+    chunk_crcs = []
+    with (path / "bag.mcap").open("rb") as f:
+        from mcap.records import Chunk
+        from mcap.stream_reader import StreamReader
+        chunk_crcs = [r.uncompressed_crc for r in StreamReader(f, skip_magic=False, emit_chunks=True).records if isinstance(r, Chunk)]
+    assert chunk_crcs and all(c != 0 for c in chunk_crcs)
+    meta = {c.topic: c.metadata for c in summary.channels.values()}
+    assert yaml.safe_load(meta["/gnss/ephemeris"]["offered_qos_profiles"]) == [latched]
+    # read back: QoS per topic, by rosbags and by the tolerant reader of a cut copy
+    assert bag.read_bag(path).qos["/gnss/ephemeris"] == [latched]
+    (path / "metadata.yaml").unlink()
+    assert bag.read_bag(path).qos["/gnss/ephemeris"] == [latched]
+
+
+def test_playback_qos_keeps_transient_local():
+    latched = bag.qos_profile(durability="transient_local", depth=200)
+    assert bag.playback_qos([latched]) == {"reliability": "reliable", "durability": "transient_local", "depth": 200}
+    assert bag.playback_qos([latched, bag.qos_profile(depth=10)])["durability"] == "volatile"
+    assert bag.playback_qos([bag.qos_profile(reliability="best_effort")])["reliability"] == "best_effort"
+    assert bag.playback_qos([]) == {"reliability": "reliable", "durability": "volatile", "depth": 0}

@@ -1,4 +1,7 @@
 """Recorder and player as real processes over DDS: record 200 Imu, replay them.
+A transient-local topic published before the recorder starts is recorded
+with its offered QoS and replayed transient local, so a subscriber that joins
+late still gets it (as with rosbag2).
 
 The test runs its own rclpy context on a random ROS domain restricted to
 localhost, so graphs of other runs on the same machine stay out of the bag.
@@ -15,15 +18,17 @@ import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
+from std_msgs.msg import String
 
 from hyper_nav_sim.core import bag
 
 N = 200
 TOPIC = "/imu/data_raw"
 QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def executable(name):
@@ -100,6 +105,8 @@ def test_record_then_replay(ros, tmp_path):
         DiagnosticArray, "/recorder/counts",
         lambda m: recorded.update({kv.key: int(kv.value) for s in m.status for kv in s.values}), 10)
     pub = node.create_publisher(Imu, TOPIC, QOS)
+    latched_pub = node.create_publisher(String, "/latched", LATCHED)
+    latched_pub.publish(String(data="published before the recorder started"))
     recorder = subprocess.Popen(
         [executable("recorder"), "--ros-args", "-p", f"output:={bag_dir}"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
@@ -107,8 +114,9 @@ def test_record_then_replay(ros, tmp_path):
         spin_until(executor, lambda: pub.get_subscription_count() >= 1, 30, "the recorder to subscribe")
         for msg in sent:
             pub.publish(msg)
-            time.sleep(0.002)  # ~500 msg/s
-        spin_until(executor, lambda: recorded.get(TOPIC, 0) >= N, 30, f"the recorder to count {N} messages")
+            time.sleep(0.01)  # ~100 msg/s: the replay lasts ~2 s, time for a late subscriber to join
+        spin_until(executor, lambda: recorded.get(TOPIC, 0) >= N and recorded.get("/latched", 0) >= 1, 30,
+                   f"the recorder to count {N} messages and the latched one")
     finally:
         recorder.send_signal(signal.SIGINT)
         code, out = finish(recorder)
@@ -125,24 +133,34 @@ def test_record_then_replay(ros, tmp_path):
     assert [imu_values(bag.deserialize(r.raw, r.msgtype)) for r in records] == [imu_values(m) for m in sent]
     times = [r.t_ns for r in records]
     assert times == sorted(times)
+    all_times = [r.t_ns for r in bag.read_bag(bag_dir)]
+    assert reader.counts["/latched"] == 1
+    assert [q["durability"] for q in reader.qos["/latched"]] == ["transient_local"]
+    assert [(q["durability"], q["reliability"]) for q in reader.qos[TOPIC]] == [("volatile", "reliable")]
 
     # --- replay -------------------------------------------------------------
     node.destroy_publisher(pub)
-    received, clocks = [], []
+    node.destroy_publisher(latched_pub)
+    received, clocks, late = [], [], []
     node.create_subscription(Imu, TOPIC, received.append, QOS)
     node.create_subscription(Clock, "/clock", clocks.append, QOS)
     player = subprocess.Popen(
-        [executable("player"), "--ros-args", "-p", f"bag:={bag_dir}", "-p", "wait_for_subscribers:=1",
-         "-p", f"topics:=['{TOPIC}']"],
+        [executable("player"), "--ros-args", "-p", f"bag:={bag_dir}", "-p", f"wait_topics:=['{TOPIC}']",
+         "-p", "wait_counts:=[1]",
+         "-p", f"topics:=['{TOPIC}', '/latched']"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
     try:
-        spin_until(executor, lambda: len(received) >= N, 60, f"{N} replayed messages")
+        spin_until(executor, lambda: len(received) >= 1, 60, "the first replayed message")
+        # a subscriber joining after /latched was replayed still gets it (transient local kept)
+        node.create_subscription(String, "/latched", late.append, LATCHED)
+        spin_until(executor, lambda: len(received) >= N and late, 60, f"{N} replayed messages and /latched")
     finally:
         code, out = finish(player)
     assert code == 0, out
-    assert f"replayed {N} messages (truncated: no)" in out, out
+    assert f"replayed {N + 1} messages (truncated: no)" in out, out
+    assert [m.data for m in late] == ["published before the recorder started"]
     assert [imu_values(m) for m in received] == [imu_values(m) for m in sent]
     assert clocks, "no /clock published"
     clock_ns = [c.clock.sec * 10**9 + c.clock.nanosec for c in clocks]
-    assert set(clock_ns) <= set(times)
+    assert set(clock_ns) <= set(all_times)
     assert clock_ns == sorted(clock_ns)

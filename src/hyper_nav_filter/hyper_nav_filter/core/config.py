@@ -33,8 +33,10 @@ CORE_PARAMS = (
               choices=("j2", "normal")),
     ParamSpec("antenna_lever_arm_b_m", FLOATS, (0.0, 0.0, 0.0), "GNSS antenna position from the IMU, body FLU (m)",
               length=3),
-    ParamSpec("gate_probability", FLOAT, 0.9999, "chi-square gate probability of the innovation test",
-              lo=0.5, hi=1.0, lo_open=True, hi_open=True),
+    # 1.0 switches the gate off: chi2.ppf(1, dof) = inf, so every finite innovation is accepted
+    # (a NaN one is still refused); KF-GINS, for one, does not gate
+    ParamSpec("gate_probability", FLOAT, 0.9999, "chi-square gate probability of the innovation test; "
+              "1 = no gate (every finite innovation accepted)", lo=0.5, hi=1.0, lo_open=True),
     positive("reprocess_window_s", FLOAT, 3.0, "how far back (s) a late measurement can still be applied exactly"),
     nonneg("output_delay_s", FLOAT, 1.0, "solutions are released this far (s) behind the newest IMU epoch"),
     positive("output_rate_hz", FLOAT, 50.0, "solution output rate (Hz)"),
@@ -63,6 +65,12 @@ def _post_init(self):
         object.__setattr__(self, "layout", StateLayout(tuple(self.state_blocks)))
     except ValueError as exc:
         raise ConfigError(f"filter config field 'state_blocks': {exc}") from None
+    # hashed once: configurations key the caches of derived models (system model, modal model)
+    object.__setattr__(self, "_hash", hash(tuple(getattr(self, p.name) for p in ALL_PARAMS)))
+
+
+def _hash(self) -> int:
+    return self._hash
 
 
 @classmethod
@@ -97,8 +105,9 @@ def _as_dict(self) -> dict:
 FilterConfig = dataclasses.make_dataclass(
     "FilterConfig",
     [(p.name, object, dataclasses.field(default=p.default)) for p in ALL_PARAMS]
-    + [("layout", StateLayout, dataclasses.field(init=False, repr=False, compare=False))],
-    namespace={"__post_init__": _post_init, "from_dict": _from_dict, "with_updates": _with_updates,
+    + [("layout", StateLayout, dataclasses.field(init=False, repr=False, compare=False)),
+       ("_hash", int, dataclasses.field(init=False, repr=False, compare=False))],
+    namespace={"__post_init__": _post_init, "__hash__": _hash, "from_dict": _from_dict, "with_updates": _with_updates,
                "initial_covariance": _initial_covariance, "as_dict": _as_dict,
                "__doc__": "Filter configuration; fields and meanings: ``config.ALL_PARAMS`` (core.params.ParamSpec)."},
     frozen=True)

@@ -6,6 +6,8 @@ is the Earth rate expressed in n, ``omega_en_n`` the transport rate.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 A_M = 6378137.0                    # WGS-84 semi-major axis
@@ -30,11 +32,18 @@ def _vec3(x, y, z):
 
 
 def wrap_lon_rad(lon_rad):
-    """Longitude wrapped to [-pi, pi) (scalars stay Python floats)."""
-    if np.ndim(lon_rad) == 0:
-        lon = float(lon_rad)
-        return lon if -np.pi <= lon < np.pi else (lon + np.pi) % (2.0 * np.pi) - np.pi
-    return (np.asarray(lon_rad, float) + np.pi) % (2.0 * np.pi) - np.pi
+    """Longitude (or a longitude difference) wrapped to [-pi, pi) [rad].
+
+    Every boundary that emits a longitude (truth, messages, filter state,
+    report) and every longitude difference goes through this function, so a
+    flight across 180 deg sees -180 on the far side and differences of a few
+    metres, not 2 pi. Scalars stay Python floats (the per-epoch hot path:
+    ~0.2 us against ~2 us for numpy on a scalar); arrays are vectorised."""
+    if isinstance(lon_rad, float):
+        w = (lon_rad + math.pi) % (2.0 * math.pi) - math.pi
+        return -math.pi if w >= math.pi else w       # (x + pi) % 2pi can round up to 2pi
+    w = np.mod(np.asarray(lon_rad, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w >= np.pi, -np.pi, w) if np.ndim(w) else float(-np.pi if w >= np.pi else w)
 
 
 def radii(lat_rad):
@@ -100,7 +109,7 @@ def ecef_to_geodetic(r_e_m):
         lat = np.arctan2(z, p * (1.0 - E2 * r_n / (r_n + alt)))
     _, r_n = radii(lat)
     alt = p / np.cos(lat) - r_n
-    return lat, lon, alt
+    return lat, wrap_lon_rad(lon), alt
 
 
 def C_n_e(lat_rad, lon_rad):
@@ -119,8 +128,11 @@ def enu_offset_m(lat0_rad, lon0_rad, alt0_m, lat_rad, lon_rad, alt_m):
 
 
 def position_error_enu_m(lat_rad, lon_rad, alt_m, lat_ref_rad, lon_ref_rad, alt_ref_m):
-    """Small position difference (estimate - reference) in local ENU metres."""
+    """Small position difference (estimate - reference) in local ENU metres;
+    the longitude difference is wrapped to [-pi, pi) (a pair of points either
+    side of 180 deg is metres apart, not an Earth circumference)."""
     r_m, r_n = radii(lat_ref_rad)
-    return np.stack([(lon_rad - lon_ref_rad) * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
+    d_lon = wrap_lon_rad(np.asarray(lon_rad, dtype=float) - lon_ref_rad)
+    return np.stack([d_lon * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
                      (lat_rad - lat_ref_rad) * (r_m + alt_ref_m),
                      alt_m - alt_ref_m], axis=-1)

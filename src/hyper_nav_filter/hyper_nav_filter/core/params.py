@@ -7,6 +7,16 @@ description. The same declaration
   * validates scenario files (``check`` names the field and coerces an
     integer where a float is expected),
   * declares the node's ROS parameters with descriptors (``ros_util.declare``).
+
+Two conveniences for data from outside the project (datasheets, other
+filters' configuration files), both declared, not coded:
+  * a 3-vector parameter (``length=3``) takes a single number for every axis;
+  * an :class:`Alias` gives the same quantity in another unit
+    (``accel_vrw_mps_per_sqrt_hr`` for ``accel_vrw_ug_per_sqrt_hz``): a
+    scenario or setup file may give either, never both; the value is
+    converted once, into the declared unit, by ``check_all``.
+``optional`` parameters take NaN for "not set" (their description says what
+then applies).
 No rclpy here.
 """
 from __future__ import annotations
@@ -44,6 +54,8 @@ class ParamSpec:
     choices: tuple[str, ...] | None = None
     updatable: bool = False
     extra: dict = field(default_factory=dict, compare=False)
+    aliases: tuple = ()            # Alias: the same quantity in other units (scenario/setup files only)
+    optional: bool = False         # NaN (every element) = not set
 
     def check(self, value, where: str = ""):
         """The value coerced to this parameter's type (int -> float, list ->
@@ -68,8 +80,11 @@ class ParamSpec:
                 raise ConfigError(f"{name}: expected one of {list(self.choices)}, got {value!r}")
             return value
         if t == FLOATS:
+            if self.length is not None and _is_number(value):
+                value = [value] * self.length           # one number for every axis
             if not isinstance(value, (list, tuple, np.ndarray)):
-                raise ConfigError(f"{name}: expected a list of numbers, got {value!r}")
+                what = f"a number or a list of {self.length} numbers" if self.length else "a list of numbers"
+                raise ConfigError(f"{name}: expected {what}, got {value!r}")
             if self.length is not None and len(value) != self.length:
                 raise ConfigError(f"{name}: expected {self.length} numbers, got {list(value)!r}")
             return tuple(self._number(v, name) for v in value)
@@ -87,6 +102,8 @@ class ParamSpec:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"{name}: expected a number, got {value!r}")
         x = float(value)
+        if math.isnan(x) and self.optional:
+            return math.nan             # one object: configurations with "not set" compare and hash alike
         if not math.isfinite(x):
             raise ConfigError(f"{name}: expected a finite number, got {value!r}")
         self._range(x, name)
@@ -97,6 +114,10 @@ class ParamSpec:
             raise ConfigError(f"{name}: must be {'>' if self.lo_open else '>='} {self.lo:g}, got {x:g}")
         if self.hi is not None and (x > self.hi or (self.hi_open and x == self.hi)):
             raise ConfigError(f"{name}: must be {'<' if self.hi_open else '<='} {self.hi:g}, got {x:g}")
+
+    def is_set(self, value) -> bool:
+        """False for an optional parameter left at NaN (every element)."""
+        return not (self.optional and bool(np.all(np.isnan(np.asarray(value, float)))))
 
     def ros_default(self):
         """The default as a ROS parameter value (tuples -> lists)."""
@@ -113,6 +134,58 @@ class ParamSpec:
         return "; ".join(parts)
 
 
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, bool)
+
+
+@dataclass(frozen=True)
+class Alias:
+    """``name`` gives the quantity of a parameter in another unit (or
+    representation): ``to_declared`` converts a checked value (float or
+    tuple, as ``spec`` checks it) into the declared parameter's unit."""
+    spec: ParamSpec
+    to_declared: Any
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+
+def unit_alias(declared: ParamSpec, name: str, factor: float, unit: str) -> Alias:
+    """An alias in another unit: declared = factor * alias (every element);
+    the range scales with it."""
+    scale = (lambda b: None if b is None else b / factor)
+    spec = ParamSpec(name, declared.type, declared.default, f"{declared.description.split(' (')[0]} ({unit}); "
+                     f"alternative to {declared.name}", lo=scale(declared.lo), hi=scale(declared.hi),
+                     lo_open=declared.lo_open, hi_open=declared.hi_open, length=declared.length,
+                     optional=declared.optional)
+    conv = (lambda v: tuple(factor * x for x in v)) if declared.type == FLOATS else (lambda v: factor * v)
+    return Alias(spec, conv)
+
+
+def with_aliases(spec: ParamSpec, *units) -> ParamSpec:
+    """``spec`` with unit aliases: each (name, factor, unit) as in :func:`unit_alias`."""
+    import dataclasses
+    return dataclasses.replace(spec, aliases=spec.aliases + tuple(unit_alias(spec, *u) for u in units))
+
+
+def resolve_aliases(specs, values: dict, where: str = "") -> dict:
+    """``values`` with every alias replaced by its declared parameter
+    (checked, converted); giving a quantity twice is an error naming both."""
+    out = dict(values)
+    for s in specs:
+        given = [a for a in s.aliases if a.name in out]
+        if not given:
+            continue
+        names = ([s.name] if s.name in out else []) + [a.name for a in given]
+        if len(names) > 1:
+            raise ConfigError(f"{where}{names[1]}: the same quantity as {names[0]}; give only one of "
+                              f"{', '.join(names)}")
+        a = given[0]
+        out[s.name] = a.to_declared(a.spec.check(out.pop(a.name), where))
+    return out
+
+
 def positive(name, type_, default, description, **kw) -> ParamSpec:
     """A parameter that must be > 0 (every element)."""
     return ParamSpec(name, type_, default, description, lo=0.0, lo_open=True, **kw)
@@ -126,9 +199,11 @@ def check_all(specs, values: dict, where: str = "") -> dict:
     """Coerced values for every spec (missing ones take the default);
     unknown keys are refused with a did-you-mean suggestion."""
     by_name = {s.name: s for s in specs}
-    unknown = sorted(set(values) - set(by_name))
+    unknown = sorted(set(values) - set(by_name) - {a.name for s in specs for a in s.aliases})
     if unknown:
-        raise ConfigError(f"{where}{unknown[0]}: unknown field{suggest(unknown[0], by_name)}")
+        known = list(by_name) + [a.name for s in specs for a in s.aliases]
+        raise ConfigError(f"{where}{unknown[0]}: unknown field{suggest(unknown[0], known)}")
+    values = resolve_aliases(specs, values, where)
     return {s.name: s.check(values[s.name], where) if s.name in values else s.default for s in specs}
 
 

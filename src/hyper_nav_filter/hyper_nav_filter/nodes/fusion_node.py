@@ -5,9 +5,12 @@ parameters ``sources`` and ``sources.<id>.type|topic|qos|...``, written by
 ``run_graph`` from the scenario's ``filter.sources``): each source subscribes
 its topic(s) with its QoS and converts messages to core measurements, IMU
 samples or model updates. Publishes ``nav/state`` (hyper_nav_msgs/NavState),
-``nav/odom`` (nav_msgs/Odometry), ``nav/fix`` (NavSatFix) and
-``/diagnostics`` (counters per input topic, gate statistics, mode and the
-sources it runs on, stream liveness, heartbeat). All math is in
+``nav/odom`` (nav_msgs/Odometry), ``nav/fix`` (NavSatFix), the transforms
+(REP-105: ``map -> base_link`` of every solution on ``/tf``; ``base_link ->
+imu_link / gnss_antenna / magnetometer`` once on ``/tf_static``, transient
+local) and ``/diagnostics`` (counters per input topic, gate statistics, mode
+and the sources it runs on, stream liveness, heartbeat). The initial state
+(``init.*``, ``core.initial_state``) includes the IMU error values. All math is in
 ``hyper_nav_filter.core``; parameters are declared once with descriptors
 (``core.params``).
 """
@@ -17,37 +20,44 @@ import importlib
 import time
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticArray
 from hyper_nav_msgs.msg import NavState as NavStateMsg
+from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import NavSatFix
+from tf2_msgs.msg import TFMessage
 
-from ..core.attitude import quat_xyzw_to_C
 from ..core.config import ALL_PARAMS, FilterConfig
+from ..core.fast.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
-from ..core.nav_state import NavState
-from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, nonneg, positive
-from ..output import OutputFrames, navsatfix_fields, navstate_fields, odometry_fields
+from ..core.initial_state import INIT_PARAMS, initial_state
+from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
+from ..output import (OutputFrames, navsatfix_fields, navstate_fields, odometry_fields, static_transform_fields,
+                      transform_fields)
 from ..ros_util import all_matched, declare_params, diagnostic_array, latched_qos, publisher_qos, run_node, \
     subscriber_qos
 from ..sources import REGISTRY, table_from_params
 from ..sources.router import SourceRouter
 
 NODE_PARAMS = (
-    ParamSpec("init.t_s", FLOAT, 0.0, "epoch of the initial state (sim time, s)"),
-    ParamSpec("init.lat_deg", FLOAT, 0.0, "initial latitude (deg)", lo=-90.0, hi=90.0),
-    ParamSpec("init.lon_deg", FLOAT, 0.0, "initial longitude (deg)", lo=-360.0, hi=360.0),
-    ParamSpec("init.alt_m", FLOAT, 0.0, "initial height above the WGS-84 ellipsoid (m)"),
-    ParamSpec("init.vel_enu_mps", FLOATS, (0.0, 0.0, 0.0), "initial velocity w.r.t. Earth, ENU (m/s)", length=3),
-    ParamSpec("init.q_b_enu_xyzw", FLOATS, (0.0, 0.0, 0.0, 1.0), "initial attitude body(FLU) -> ENU, quaternion",
-              length=4),
     ParamSpec("frames.map", STR, "map", "REP-105 map frame (ENU tangent plane at the origin)"),
     ParamSpec("frames.enu", STR, "enu", "local-level frame of nav/state"),
-    ParamSpec("frames.body", STR, "base_link", "body frame (FLU)"),
-    ParamSpec("origin.lat_deg", FLOAT, float("nan"), "map origin latitude (deg); NaN = the initial position"),
-    ParamSpec("origin.lon_deg", FLOAT, float("nan"), "map origin longitude (deg)"),
-    ParamSpec("origin.alt_m", FLOAT, float("nan"), "map origin height (m)"),
+    ParamSpec("frames.body", STR, "base_link", "body frame (FLU): the IMU's reference point and axes"),
+    ParamSpec("frames.imu", STR, "imu_link", "IMU frame (child of base_link on /tf_static)"),
+    ParamSpec("frames.gnss_antenna", STR, "gnss_antenna", "GNSS antenna frame, at filter.antenna_lever_arm_b_m"),
+    ParamSpec("frames.magnetometer", STR, "magnetometer", "magnetometer frame"),
+    ParamSpec("tf.publish", BOOL, True, "publish map -> base_link on /tf and the sensor frames on /tf_static"),
+    ParamSpec("tf.min_subscribers", INT, 0, "with min_output_subscribers: wait for this many subscribers on /tf "
+              "and /tf_static before subscribing to the inputs", lo=0, hi=100),
+    ParamSpec("tf.imu_position_b_m", FLOATS, (0.0, 0.0, 0.0), "IMU position in base_link (FLU, m); the filter's "
+              "body frame is the IMU's, so normally zero", length=3),
+    ParamSpec("tf.magnetometer_position_b_m", FLOATS, (0.0, 0.0, 0.0), "magnetometer position in base_link "
+              "(FLU, m; scenario magnetometer.lever_arm_b_m)", length=3),
+    ParamSpec("origin.lat_deg", FLOAT, float("nan"), "map origin latitude (deg); NaN = the initial position",
+              optional=True),
+    ParamSpec("origin.lon_deg", FLOAT, float("nan"), "map origin longitude (deg)", optional=True),
+    ParamSpec("origin.alt_m", FLOAT, float("nan"), "map origin height (m)", optional=True),
     ParamSpec("qos.depth", INT, 2000, "KEEP_LAST depth of reliable subscriptions and publishers", lo=1, hi=100000),
     ParamSpec("min_output_subscribers", INT, 0, "wait for this many subscribers on every output before "
               "subscribing to the inputs", lo=0, hi=100),
@@ -69,29 +79,35 @@ def message_class(type_name: str):
 
 
 class FusionNode(Node):
-    def __init__(self):
-        super().__init__("fusion")
+    def __init__(self, **node_kw):
+        """``node_kw``: rclpy Node arguments (e.g. ``context`` in tests)."""
+        super().__init__("fusion", **node_kw)
         cfg = declare_params(self, ALL_PARAMS, "filter.", "filter.")
         self.cfg = FilterConfig(**cfg)
         self.p = declare_params(self, NODE_PARAMS)
         p = self.p
         self.table = self._declare_sources()
-        init = NavState(p["init.t_s"], np.deg2rad(p["init.lat_deg"]), np.deg2rad(p["init.lon_deg"]),
-                        p["init.alt_m"], np.asarray(p["init.vel_enu_mps"], float),
-                        quat_xyzw_to_C(p["init.q_b_enu_xyzw"]))
-        self.engine = FusionEngine(self.cfg, init)
+        self.init = declare_params(self, INIT_PARAMS, "init.")
+        warm_up()                       # compiled kernels loaded (or compiled) before any message arrives
+        self.engine = FusionEngine(self.cfg, initial_state(self.init))
         self.router = SourceRouter(self.engine, self.table)
         origin = [p["origin.lat_deg"], p["origin.lon_deg"], p["origin.alt_m"]]
         if not np.all(np.isfinite(origin)):
-            origin = [p["init.lat_deg"], p["init.lon_deg"], p["init.alt_m"]]
+            origin = [self.init["lat_deg"], self.init["lon_deg"], self.init["alt_m"]]
         self.frames = OutputFrames(p["frames.map"], p["frames.enu"], p["frames.body"],
                                    np.deg2rad(origin[0]), np.deg2rad(origin[1]), origin[2])
         qos = publisher_qos(p["qos.depth"])
         self.pub_state = self.create_publisher(NavStateMsg, "nav/state", qos)
         self.pub_odom = self.create_publisher(Odometry, "nav/odom", qos)
         self.pub_fix = self.create_publisher(NavSatFix, "nav/fix", qos)
+        self.pub_tf = self.pub_tf_static = None
+        if p["tf.publish"]:
+            self.pub_tf = self.create_publisher(TFMessage, "/tf", qos)
+            self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", latched_qos(10))
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
+        if self.pub_tf is not None:
+            self.counts.update({"published tf": 0, "published tf_static": 0})
         self._subs = []
         self._last_imu_wall = None
         self._last_msg_t = {}            # source id -> filter time of its last processed message
@@ -124,6 +140,10 @@ class FusionNode(Node):
         nothing computed is published into the void."""
         if not all_matched([self.pub_state, self.pub_odom, self.pub_fix], self.p["min_output_subscribers"]):
             return
+        if self.pub_tf is not None:
+            if not all_matched([self.pub_tf, self.pub_tf_static], self.p["tf.min_subscribers"]):
+                return
+            self._publish_static_transforms()
         self._wait_timer.cancel()
         depth = self.p["qos.depth"]
         # latched inputs (ephemerides) first: when both are ready, the executor takes them in creation order
@@ -159,6 +179,25 @@ class FusionNode(Node):
             self.pub_fix.publish(f)
             for t in _OUTPUTS:
                 self.counts[f"published {t}"] += 1
+            if self.pub_tf is not None:
+                tf = TransformStamped()
+                _assign(tf, transform_fields(sol, self.frames))
+                self.pub_tf.publish(TFMessage(transforms=[tf]))
+                self.counts["published tf"] += 1
+
+    def _publish_static_transforms(self):
+        """base_link -> imu_link / gnss_antenna / magnetometer (lever arms, body FLU), once, latched."""
+        p = self.p
+        children = {p["frames.imu"]: p["tf.imu_position_b_m"],
+                    p["frames.gnss_antenna"]: self.cfg.antenna_lever_arm_b_m,
+                    p["frames.magnetometer"]: p["tf.magnetometer_position_b_m"]}
+        msg = TFMessage()
+        for child, position in children.items():
+            t = TransformStamped()
+            _assign(t, static_transform_fields(self.engine.t_latest_s, self.frames.body, child, position))
+            msg.transforms.append(t)
+        self.pub_tf_static.publish(msg)
+        self.counts["published tf_static"] += 1
 
     def on_shutdown(self):
         """At SIGINT/SIGTERM (ros_util.run_node): publish the solutions still

@@ -83,11 +83,13 @@ def _default_stream(duration_s):
     return sc, traj, imu, gnss_measurements(sc, traj), n
 
 
-@pytest.mark.parametrize("gap_s", [0.5, 5.0])
-def test_an_imu_gap_is_bridged_counted_and_the_filter_recovers(gap_s):
+@pytest.mark.parametrize("gap_s, gnss_in_gap", [(0.5, False), (5.0, False), (5.0, True)])
+def test_an_imu_gap_is_bridged_counted_and_the_filter_recovers(gap_s, gnss_in_gap):
     """A hole in the IMU stream (a bag with a gap, a dropped stream): the
-    engine bridges it, flags the solutions INS only, inflates P so the next
-    GNSS fix is accepted, and is back on the truth within seconds."""
+    engine bridges it, flags the solutions INS only when nothing aids them,
+    inflates P so the next GNSS fix is accepted (the per-step inflation stays
+    positive semi-definite when fixes arrive inside the gap), and is back on
+    the truth within seconds."""
     sc, traj, imu, meas, n = _default_stream(60.0)
     eng = FusionEngine(sc.filter_config(), sc.filter_initial_state())
     t_gap = (30.0, 30.0 + gap_s)
@@ -98,7 +100,7 @@ def test_an_imu_gap_is_bridged_counted_and_the_filter_recovers(gap_s):
         if not in_gap:        # rates as the fusion node hands them over
             eng.add_imu_rates(t, imu.dtheta_b_rad[k] / imu.dt_s, imu.dvel_b_mps[k] / imu.dt_s)
         while j < len(meas) and meas[j].t_s <= t + 1e-9:
-            if not (t_gap[0] < meas[j].t_s < t_gap[1]):
+            if gnss_in_gap or not (t_gap[0] < meas[j].t_s < t_gap[1]):
                 eng.add_measurement(meas[j])
             j += 1
         sols += eng.release()
@@ -111,8 +113,10 @@ def test_an_imu_gap_is_bridged_counted_and_the_filter_recovers(gap_s):
                                                               tr.lat_rad[i], tr.lon_rad[i], tr.alt_m[i]))
                     for i, s in enumerate(sols)])
     mode = np.array([s.mode for s in sols])
-    if gap_s > 1.0:
+    if gap_s > 1.0 and not gnss_in_gap:
         assert np.any(mode[(t > t_gap[0] + 1.05) & (t < t_gap[1])] == MODE_INS_ONLY)
+    if gnss_in_gap:                                     # aided through the gap: decimetres throughout
+        assert err[t > 25.0].max() < 3.0, err[t > 25.0].max()
     assert np.all(mode[t > t_gap[1] + 2.0] == MODE_LOOSELY_COUPLED)
     assert err[t > t_gap[1] + 10.0].max() < 2.0, err[t > t_gap[1]].max()   # back on the truth
     assert eng.kf.n_rejected < 5                                              # first fixes not gated away

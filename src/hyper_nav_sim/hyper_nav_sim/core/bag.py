@@ -12,7 +12,11 @@ on the recorder's clock (ROS time; sim time when the recorder runs with
 are ROS 2 names such as ``sensor_msgs/msg/Imu`` or ``hyper_nav_msgs/msg/NavState``;
 the MCAP file carries the schema (.msg text) of every type it holds.
 
-Pure Python (rosbags), no rclpy: usable offline and in tests. A bag cut short
+Pure Python (``mcap`` writes, rosbags reads), no rclpy: usable offline and
+in tests. Bags are written as ``ros2 bag record`` (Jazzy, MCAP storage) writes
+them: offered QoS profiles per topic, chunk CRCs, ``ros_distro: jazzy``
+(:class:`BagWriter`); the player offers the recorded QoS again
+(:func:`playback_qos`: transient local stays transient local). A bag cut short
 (recorder killed, disk full) is read with a tolerant MCAP parser that returns
 every complete message before the cut and reports the damage; see
 :class:`BagReader`.
@@ -26,9 +30,7 @@ import struct
 from pathlib import Path
 from typing import Iterable, Iterator, NamedTuple
 
-from rosbags.rosbag2 import Reader, Writer
-from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
-from rosbags.rosbag2.errors import WriterError
+from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 MSG_PACKAGE = "hyper_nav_msgs"
@@ -77,61 +79,180 @@ def deserialize(raw: bytes, msgtype: str):
     return typestore().deserialize_cdr(raw, msgtype)
 
 
-class BagWriter:
-    """Write already serialized (CDR) messages into a new rosbag2/MCAP bag.
+# --- rosbag2 conventions (Jazzy) ----------------------------------------------
+ROS_DISTRO = "jazzy"
+METADATA_VERSION = 9          # rosbag2 metadata.yaml version of Jazzy
+INFINITE = {"sec": 9223372036, "nsec": 854775807}   # rmw "infinite" duration as rosbag2 writes it
 
-    ``compression``: None (uncompressed chunks) or ``"zstd"`` (zstd-compressed
-    MCAP chunks; metadata.yaml and the file name stay as without compression).
-    Refuses an existing path (FileExistsError). Use as a context manager, or
-    call :meth:`close` to write the MCAP summary and metadata.yaml.
+
+def qos_profile(reliability: str = "reliable", durability: str = "volatile", history: str = "keep_last",
+                depth: int = 0, deadline=None, lifespan=None, liveliness: str = "automatic",
+                liveliness_lease_duration=None, avoid_ros_namespace_conventions: bool = False) -> dict:
+    """One offered QoS profile as rosbag2 (metadata version 9) writes it:
+    lower-case policy names, durations as {sec, nsec}."""
+    return {"history": history, "depth": int(depth), "reliability": reliability, "durability": durability,
+            "deadline": dict(deadline or INFINITE), "lifespan": dict(lifespan or INFINITE),
+            "liveliness": liveliness,
+            "liveliness_lease_duration": dict(liveliness_lease_duration or INFINITE),
+            "avoid_ros_namespace_conventions": bool(avoid_ros_namespace_conventions)}
+
+
+def playback_qos(profiles) -> dict:
+    """QoS a player offers for a recorded topic, adapted from the publishers'
+    offered profiles as ``ros2 bag play`` does: reliable if every publisher was
+    reliable (else best effort), transient local if every one was transient
+    local (else volatile), depth the largest recorded depth. Unknown (no
+    profile recorded) -> reliable, volatile, depth 0 (caller's default)."""
+    profiles = [p for p in (profiles or []) if isinstance(p, dict)]
+    if not profiles:
+        return {"reliability": "reliable", "durability": "volatile", "depth": 0}
+    reliable = all(p.get("reliability") == "reliable" for p in profiles)
+    latched = all(p.get("durability") == "transient_local" for p in profiles)
+    return {"reliability": "reliable" if reliable else "best_effort",
+            "durability": "transient_local" if latched else "volatile",
+            "depth": max(int(p.get("depth", 0)) for p in profiles)}
+
+
+class BagWriter:
+    """Write already serialized (CDR) messages into a new rosbag2/MCAP bag, as
+    ``ros2 bag record -s mcap`` (Jazzy) lays it out: MCAP profile ``ros2``,
+    schemas ``ros2msg`` with the full message definition, channels ``cdr`` with
+    the publishers' ``offered_qos_profiles`` and ``topic_type_hash`` (RIHS01),
+    chunk CRCs and a data-section CRC (the ``mcap`` library's writer), a
+    ``rosbag2`` metadata record, and ``metadata.yaml`` (version 9, ``ros_distro:
+    jazzy``) with the offered QoS profiles per topic.
+
+    ``compression``: None (uncompressed chunks, rosbag2's default) or ``"zstd"``
+    (zstd-compressed MCAP chunks; metadata.yaml and the file name stay as
+    without compression). Refuses an existing path (FileExistsError). Use as a
+    context manager, or call :meth:`close` to write the MCAP summary and
+    metadata.yaml.
     """
 
-    def __init__(self, path, compression: str | None = None):
+    def __init__(self, path, compression: str | None = None, chunk_size: int = 1 << 20):
+        from mcap.writer import CompressionType, Writer
         self.path = Path(path)
-        if self.path.exists():
-            raise FileExistsError(errno.EEXIST, "bag exists already, not overwriting", str(self.path))
-        self._writer = Writer(self.path, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
-        if compression == "zstd":
-            self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        elif compression is not None:
+        kinds = {None: CompressionType.NONE, "zstd": CompressionType.ZSTD}
+        if compression not in kinds:
             raise ValueError(f"unsupported compression {compression!r} (None or 'zstd')")
         try:
-            self._writer.open()
-        except WriterError as exc:  # created by someone else since the check above
-            raise FileExistsError(errno.EEXIST, str(exc), str(self.path)) from None
-        self._connections = {}
+            self.path.mkdir(parents=True)
+        except FileExistsError:
+            raise FileExistsError(errno.EEXIST, "bag exists already, not overwriting", str(self.path)) from None
+        self.file_path = self.path / f"{self.path.name}.mcap"
+        self._file = self.file_path.open("xb")
+        self._mcap = Writer(self._file, chunk_size=chunk_size, compression=kinds[compression],
+                            enable_crcs=True, enable_data_crcs=True)
+        self._mcap.start(profile="ros2", library=f"hyper-nav rosbag2 writer (mcap-python {_version('mcap')})")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, tuple[int, str]] = {}       # topic -> (channel id, msgtype)
+        self.qos: dict[str, list[dict]] = {}
+        self._hash: dict[str, str] = {}
+        self._seq: dict[str, int] = {}
         self.counts: dict[str, int] = {}
+        self._t_min, self._t_max = None, None
+        self._closed = False
 
-    def write(self, topic: str, msgtype: str, t_ns: int, raw: bytes) -> None:
-        """Append one message: CDR bytes ``raw`` of type ``msgtype`` logged at ``t_ns`` (ns)."""
-        key = (topic, msgtype)
-        if key not in self._connections:
-            self._connections[key] = self._writer.add_connection(topic, msgtype, typestore=typestore())
-        self._writer.write(self._connections[key], int(t_ns), raw)
-        self.counts[topic] = self.counts.get(topic, 0) + 1
+    def add_topic(self, topic: str, msgtype: str, offered_qos_profiles=()) -> None:
+        """Declare a topic with the QoS profiles its publishers offer (see
+        :func:`qos_profile`); :meth:`write` declares unknown topics itself
+        (without profiles)."""
+        if topic in self._channels:
+            if self._channels[topic][1] != msgtype:
+                raise ValueError(f"{topic}: recorded as {self._channels[topic][1]}, not {msgtype}")
+            return
+        store = typestore()
+        if msgtype not in self._schemas:
+            msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
+            self._schemas[msgtype] = self._mcap.register_schema(msgtype, "ros2msg", msgdef.encode())
+        self._hash[topic] = store.hash_rihs01(msgtype)
+        self.qos[topic] = [dict(p) for p in offered_qos_profiles]
+        meta = {"offered_qos_profiles": _yaml_dump(self.qos[topic]) if self.qos[topic] else "",
+                "topic_type_hash": self._hash[topic]}
+        cid = self._mcap.register_channel(topic, "cdr", self._schemas[msgtype], meta)
+        self._channels[topic] = (cid, msgtype)
+        self.counts.setdefault(topic, 0)
+
+    def write(self, topic: str, msgtype: str, t_ns: int, raw: bytes, publish_t_ns: int | None = None) -> None:
+        """Append one message: CDR bytes ``raw`` of type ``msgtype`` logged
+        (received) at ``t_ns`` and published at ``publish_t_ns`` (default t_ns), in ns."""
+        if topic not in self._channels:
+            self.add_topic(topic, msgtype)
+        cid, _ = self._channels[topic]
+        t_ns = int(t_ns)
+        self._mcap.add_message(cid, log_time=t_ns, data=bytes(raw),
+                               publish_time=t_ns if publish_t_ns is None else int(publish_t_ns),
+                               sequence=self._seq.get(topic, 0))
+        self._seq[topic] = self._seq.get(topic, 0) + 1
+        self.counts[topic] += 1
+        self._t_min = t_ns if self._t_min is None else min(self._t_min, t_ns)
+        self._t_max = t_ns if self._t_max is None else max(self._t_max, t_ns)
 
     def flush(self) -> None:
-        """Push buffered messages to disk so a crash loses only what came after.
+        """End the chunk in progress and push it to disk, so a crash loses only
+        what came after (the tolerant reader recovers every flushed chunk)."""
+        if not self._closed:
+            self._mcap.flush()
 
-        rosbags keeps up to 1 MiB of messages in an in-memory chunk; this ends
-        that chunk early. Relies on rosbags' McapWriter (checked at runtime).
-        """
-        storage = self._writer.storage
-        chunk = getattr(storage, "chunk", None)
-        if chunk is not None and chunk.msgs and hasattr(storage, "close_chunk"):
-            storage.close_chunk()
-            storage.bio.flush()
+    def metadata(self) -> dict:
+        """The rosbag2 bag information (``metadata.yaml`` content)."""
+        start = self._t_min or 0
+        duration = (self._t_max - self._t_min) if self._t_min is not None else 0
+        n = sum(self.counts.values())
+        topics = [{"topic_metadata": {"name": t, "type": mt, "serialization_format": "cdr",
+                                      "offered_qos_profiles": self.qos.get(t, []),
+                                      "type_description_hash": self._hash[t]},
+                   "message_count": self.counts.get(t, 0)} for t, (_, mt) in self._channels.items()]
+        return {"rosbag2_bagfile_information": {
+            "version": METADATA_VERSION, "storage_identifier": "mcap",
+            "duration": {"nanoseconds": duration}, "starting_time": {"nanoseconds_since_epoch": start},
+            "message_count": n, "topics_with_message_count": topics,
+            "compression_format": "", "compression_mode": "",
+            "relative_file_paths": [self.file_path.name],
+            "files": [{"path": self.file_path.name, "starting_time": {"nanoseconds_since_epoch": start},
+                       "duration": {"nanoseconds": duration}, "message_count": n}],
+            "custom_data": None, "ros_distro": ROS_DISTRO}}
 
     def close(self) -> None:
-        """Finish the MCAP file (summary, footer) and write metadata.yaml. Idempotent."""
-        if self._writer.storage is not None:
-            self._writer.close()
+        """Finish the MCAP file (rosbag2 metadata record, summary with CRCs,
+        footer) and write metadata.yaml. Idempotent."""
+        if self._closed:
+            return
+        info = self.metadata()
+        self._mcap.flush()
+        self._mcap.add_metadata("rosbag2", {"serialized_metadata": _yaml_dump(info["rosbag2_bagfile_information"])})
+        self._mcap.finish()
+        self._file.close()
+        self._closed = True
+        tmp = self.path / "metadata.yaml.tmp"
+        tmp.write_text(_yaml_dump(info))
+        tmp.replace(self.path / "metadata.yaml")
+
+    def abort(self) -> None:
+        """Close the file without summary or metadata.yaml (what a killed
+        recorder leaves behind: flushed chunks only)."""
+        if not self._closed:
+            self._file.close()
+            self._closed = True
 
     def __enter__(self) -> BagWriter:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _yaml_dump(data) -> str:
+    import yaml
+    return yaml.safe_dump(data, sort_keys=False, default_flow_style=False)
+
+
+def _version(dist: str) -> str:
+    from importlib.metadata import version
+    try:
+        return version(dist)
+    except Exception:  # not installed as a distribution
+        return "unknown"
 
 
 class BagReader:
@@ -141,6 +262,9 @@ class BagReader:
     topic -> msgtype and is known after construction. After a full iteration:
     ``.counts`` (topic -> records yielded), ``.truncated`` (the MCAP data ends
     early) and ``.error`` (what is wrong, naming the file; None for a sound bag).
+
+    ``.qos`` maps topic -> the offered QoS profiles recorded for it (list of
+    :func:`qos_profile` dicts; empty when the bag has none).
 
     A sound bag is read by rosbags. If rosbags refuses it (file cut short,
     metadata.yaml missing, ...), the .mcap file is parsed tolerantly instead:
@@ -156,9 +280,14 @@ class BagReader:
         self.error: str | None = None
         self.counts: dict[str, int] = {}
         self._records: list[Record] | None = None
+        self.qos: dict[str, list[dict]] = {}
         try:
             with Reader(self.path) as reader:
                 self.topics = {c.topic: c.msgtype for c in reader.connections if self._keep(c.topic)}
+                from rosbags.rosbag2.metadata import dump_qos_v9
+                for c in reader.connections:
+                    if self._keep(c.topic):
+                        self.qos[c.topic] = [dict(q) for q in dump_qos_v9(list(c.ext.offered_qos_profiles))]
         except Exception as exc:
             self._read_tolerant(exc)
 
@@ -171,12 +300,13 @@ class BagReader:
             raise FileNotFoundError(errno.ENOENT, f"no .mcap file in bag ({cause})", str(self.path))
         self._records, problems = [], []
         for mcap in files:
-            records, problem = scan_mcap(mcap)
+            records, problem = scan_mcap(mcap, self.qos)
             self._records += [r for r in records if self._keep(r.topic)]
             if problem:
                 problems.append(f"{mcap}: {problem}")
         self._records.sort(key=lambda r: r.t_ns)  # stable: file order within equal times
         self.topics = {r.topic: r.msgtype for r in self._records}
+        self.qos = {t: q for t, q in self.qos.items() if t in self.topics}
         self.truncated = bool(problems)
         if problems:
             self.error = "; ".join(problems) + f" (rosbags: {cause})"
@@ -245,6 +375,7 @@ class _Scan:
     def __init__(self):
         self.schemas: dict[int, str] = {}  # schema id -> type name
         self.channels: dict[int, tuple[str, str]] = {}  # channel id -> (topic, type)
+        self.qos: dict[str, list[dict]] = {}  # topic -> offered QoS profiles (channel metadata)
         self.records: list[Record] = []
         self.damage: list[str] = []  # complete chunks whose content did not parse
         self.footer = False
@@ -272,7 +403,9 @@ class _Scan:
             self.schemas[sid] = _string(body, 2)[0]
         elif op == _OP_CHANNEL:
             cid, sid = struct.unpack_from("<HH", body, 0)
-            self.channels[cid] = (_string(body, 4)[0], self.schemas.get(sid, ""))
+            topic, pos = _string(body, 4)
+            self.channels[cid] = (topic, self.schemas.get(sid, ""))
+            self.qos[topic] = _channel_qos(body, _string(body, pos)[1])
         elif op == _OP_MESSAGE:
             cid, _seq, log_time = struct.unpack_from("<HIQ", body, 0)
             if cid in self.channels:
@@ -296,11 +429,30 @@ class _Scan:
         return problem
 
 
-def scan_mcap(path) -> tuple[list[Record], str | None]:
+def _channel_qos(body, pos: int) -> list[dict]:
+    """``offered_qos_profiles`` of a channel record's metadata map (rosbag2
+    writes a YAML list), [] if absent or unreadable."""
+    try:
+        (n,) = _U32.unpack_from(body, pos)
+        end, pos = pos + 4 + n, pos + 4
+        while pos < end:
+            key, pos = _string(body, pos)
+            value, pos = _string(body, pos)
+            if key == "offered_qos_profiles":
+                import yaml
+                profiles = yaml.safe_load(value) if value.strip() else []
+                return [p for p in profiles if isinstance(p, dict)] if isinstance(profiles, list) else []
+    except Exception:  # damaged metadata: the messages still count
+        pass
+    return []
+
+
+def scan_mcap(path, qos: dict | None = None) -> tuple[list[Record], str | None]:
     """Tolerantly read all messages of one .mcap file, in file order.
 
     Returns ``(records, problem)``: problem is None for a complete file (footer
-    reached), else a description of where the data ends or is damaged.
+    reached), else a description of where the data ends or is damaged. The
+    offered QoS profiles of the channels found are added to ``qos``.
     """
     data = memoryview(Path(path).read_bytes())
     if bytes(data[:8]) != MCAP_MAGIC:
@@ -314,4 +466,6 @@ def scan_mcap(path) -> tuple[list[Record], str | None]:
     if problem is None and not scan.footer:
         problem = f"no MCAP footer, file ends at offset {len(data)}"
     problems = scan.damage + ([problem] if problem else [])
+    if qos is not None:
+        qos.update(scan.qos)
     return scan.records, "; ".join(problems) or None

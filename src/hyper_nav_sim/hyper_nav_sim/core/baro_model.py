@@ -34,6 +34,10 @@ import numpy as np
 
 from hyper_nav_filter.core.atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
 
+from .fields import unknown_field
+
+CONFIG_FIELDS = frozenset({"pressure_noise_rel_ppm", "pressure_noise_pa", "pressure_bias_pa", "max_alt_m"})
+
 
 def default_pressure_fn():
     """``pressure_pa_at(alt_m)``: US76 static pressure (``atmosphere.py``)."""
@@ -54,10 +58,9 @@ class BaroErrors:
         d = {} if d is None else d
         if not isinstance(d, dict):
             raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
-        known = {"pressure_noise_rel_ppm", "pressure_noise_pa", "pressure_bias_pa", "max_alt_m"}
         for k in d:
-            if k not in known | {"rate_hz"}:
-                raise ValueError(f"{prefix}.{k}: unknown field (known: {sorted(known)})")
+            if k not in CONFIG_FIELDS | {"rate_hz"}:
+                raise ValueError(unknown_field(f"{prefix}.", k, CONFIG_FIELDS | {"rate_hz"}))
         out = {}
         for k, default, nonneg in (("pressure_noise_rel_ppm", 0.0, True), ("pressure_noise_pa", 0.0, True),
                                    ("pressure_bias_pa", 0.0, False), ("max_alt_m", 60000.0, True)):

@@ -679,7 +679,8 @@ class DynamicTrajectory:
         lat, lon, alt = Y[0], Y[1], Y[2]
         omega_ib_b, f_b = inertial_rates(lat, alt, d["vel"], d["vdot"], d["C_b_n"], d["omega_nb_b"])
         roll, pitch, heading = attitude_angles(d["C_b_n"])
-        return TruthSample(t, lat, lon, alt, d["vel"], d["C_b_n"], omega_ib_b, f_b, roll, pitch, heading)
+        return TruthSample(t, lat, earth.wrap_lon_rad(lon), alt, d["vel"], d["C_b_n"], omega_ib_b, f_b,
+                           roll, pitch, heading)
 
     def imu_increments(self, t_end_s, dt_s):
         """Exact increments (dtheta_b_rad, dvel_b_mps), each (N, 3), over the

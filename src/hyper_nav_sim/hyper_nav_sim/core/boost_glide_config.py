@@ -41,6 +41,8 @@ import copy
 
 import numpy as np
 
+from .fields import check_keys
+
 _MISSING = object()
 
 
@@ -62,9 +64,7 @@ def _num(d, key, path, default=_MISSING, positive=False, nonneg=False):
 def _check_keys(d, allowed, path):
     if not isinstance(d, dict):
         raise ValueError(f"{path.rstrip('.') or 'flight'}: expected a mapping, got {d!r}")
-    for k in d:
-        if k not in allowed:
-            raise ValueError(f"{path}{k}: unknown field")
+    check_keys(d, allowed, path)
 
 
 _TOP = {"duration_s", "end_speed_mps", "end_alt_m", "start", "mass_kg", "s_ref_m2", "cd0", "k_induced",
@@ -100,7 +100,10 @@ def parse_flight(d: dict) -> dict:
     lat = _num(st, "lat_deg", ps)
     if abs(lat) >= 90.0:
         raise ValueError(f"flight.start.lat_deg: must be within (-90, 90), got {lat!r}")
-    start = FlightStart(np.deg2rad(lat), np.deg2rad(_num(st, "lon_deg", ps)), _num(st, "alt_m", ps),
+    lon = _num(st, "lon_deg", ps)
+    if not -180.0 <= lon <= 180.0:
+        raise ValueError(f"flight.start.lon_deg: must be within [-180, 180], got {lon!r}")
+    start = FlightStart(np.deg2rad(lat), np.deg2rad(lon), _num(st, "alt_m", ps),
                         _num(st, "speed_mps", ps, positive=True), np.deg2rad(_num(st, "gamma_deg", ps)),
                         np.deg2rad(_num(st, "psi_deg", ps)))
     veh = Vehicle(

@@ -35,7 +35,7 @@ def simulate_fixes(traj, t_s, pos_sigma_enu_m, vel_sigma_enu_mps, lever_arm_b_m,
     d_enu = l_n + rng.standard_normal((n, 3)) * np.asarray(pos_sigma_enu_m, float)
     r_m, r_n = earth.radii(tr.lat_rad)
     lat = tr.lat_rad + d_enu[:, 1] / (r_m + tr.alt_m)
-    lon = tr.lon_rad + d_enu[:, 0] / ((r_n + tr.alt_m) * np.cos(tr.lat_rad))
+    lon = earth.wrap_lon_rad(tr.lon_rad + d_enu[:, 0] / ((r_n + tr.alt_m) * np.cos(tr.lat_rad)))
     alt = tr.alt_m + d_enu[:, 2]
     vel = tr.vel_enu_mps + v_lever_n + rng.standard_normal((n, 3)) * np.asarray(vel_sigma_enu_mps, float)
     return GnssFixes(np.asarray(t_s, float), lat, lon, alt, vel,

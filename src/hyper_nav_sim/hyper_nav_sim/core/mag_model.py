@@ -34,19 +34,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pygeomag import GeoMag
-from scipy.stats import chi
 
 from hyper_nav_filter.core import earth
 
-_GEOMAG = GeoMag()
+from . import wmm
+from .fields import unknown_field
 
 
 def wmm_field_enu_nT(lat_rad, lon_rad, alt_m, decimal_year):
-    """WMM main field in ENU [nT] at one geodetic point."""
-    r = _GEOMAG.calculate(glat=float(np.rad2deg(lat_rad)), glon=float(np.rad2deg(lon_rad)),
-                          alt=float(alt_m) / 1000.0, time=float(decimal_year))
-    return np.array([r.y, r.x, -r.z])
+    """WMM main field in ENU [nT] at one geodetic point, from the WMM release
+    valid at ``decimal_year`` (``wmm.release_for``: WMM-2020 for 2022.5,
+    WMM-2025 for 2025.5; a date no release covers raises WmmDateError)."""
+    return wmm.field_enu_nT(lat_rad, lon_rad, alt_m, decimal_year)
 
 
 class MapErrorField:
@@ -56,6 +55,7 @@ class MapErrorField:
     def __init__(self, rms_nT: float, corr_length_m: float, n_waves: int = 256, seed: int = 0):
         self.rms_nT = float(rms_nT)
         self.corr_length_m = float(corr_length_m)
+        from scipy.stats import chi        # here, not at module level: 1-3 s of every sensor node's start-up
         rng = np.random.default_rng(seed)
         k_mag = chi.ppf((np.arange(n_waves) + 0.5) / n_waves, df=3) / corr_length_m
         rng.shuffle(k_mag)
@@ -70,6 +70,10 @@ class MapErrorField:
         r = earth.geodetic_to_ecef(np.asarray(lat_rad, float), np.asarray(lon_rad, float),
                                    np.asarray(alt_m, float))
         return self.amp * np.cos(r @ self.kappa.T + self.phase).sum(axis=-1)
+
+
+CONFIG_FIELDS = frozenset({"noise_nT", "hard_iron_b_nT", "soft_iron", "map_error_rms_nT", "map_error_corr_length_m",
+                           "map_error_n_waves", "map_error_seed"})
 
 
 @dataclass(frozen=True)
@@ -93,15 +97,14 @@ class MagnetometerErrors:
         """From the ``magnetometer:`` block; fields (all optional): noise_nT,
         hard_iron_b_nT [3], soft_iron [3x3, dimensionless], map_error_rms_nT,
         map_error_corr_length_m, map_error_n_waves, map_error_seed; rate_hz
-        and epoch_decimal_year are allowed and ignored. ValueError names a bad field."""
+        epoch_decimal_year and lever_arm_b_m are allowed and ignored. ValueError names a bad field."""
         d = {} if d is None else d
         if not isinstance(d, dict):
             raise ValueError(f"{prefix}: expected a mapping, got {d!r}")
-        known = {"noise_nT", "hard_iron_b_nT", "soft_iron", "map_error_rms_nT", "map_error_corr_length_m",
-                 "map_error_n_waves", "map_error_seed"}
+        known = CONFIG_FIELDS
         for k in d:
-            if k not in known | {"rate_hz", "epoch_decimal_year"}:
-                raise ValueError(f"{prefix}.{k}: unknown field (known: {sorted(known)})")
+            if k not in known | {"rate_hz", "epoch_decimal_year", "lever_arm_b_m"}:
+                raise ValueError(unknown_field(f"{prefix}.", k, known | {"rate_hz", "epoch_decimal_year", "lever_arm_b_m"}))
 
         def num(k, default, positive=False):
             v = d.get(k, default)

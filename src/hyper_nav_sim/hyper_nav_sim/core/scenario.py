@@ -4,12 +4,29 @@
 installed ``share/hyper_nav_sim/scenarios`` or the source tree), checks every
 field against the schema below and raises ``ScenarioError`` naming the bad
 field (``imu.rate_hz: expected a number, got 'fifty'``).
+
+Validation rules (one place, applied to files and to ``--set`` overrides):
+
+* every key of every block is known; an unknown one is refused with the
+  nearest known name (``graph.real_time_facter: unknown field; did you mean
+  'real_time_factor'?``);
+* types: numbers are finite; an integer where a number (float) is expected
+  is coerced to float at load, so ROS parameters declared as double accept
+  it (``rate_hz: 50``); anything else is refused naming the field;
+* ranges: ``start.lat_deg`` in (-90, 90), ``start.lon_deg`` in [-180, 180],
+  rates, periods and timeouts > 0, every ``*sigma*`` field > 0, the
+  magnetometer date inside a World Magnetic Model (``wmm.py``);
+* ``extends: <name or path>`` starts from another file, resolved relative
+  to the extending file first (then the installed scenarios); mappings merge
+  key by key, lists and values replace, and ``key: null`` removes an
+  inherited key (``maneuvers: null`` turns a kinematic scenario into a
+  ``flight:`` one).
 """
 from __future__ import annotations
 
 import copy
 import pathlib
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import yaml
@@ -17,6 +34,7 @@ import yaml
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
+from .fields import suggestion, unknown_field
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
 
@@ -56,10 +74,20 @@ SCHEMA = {
     "magnetometer.rate_hz": (NUM, True, None),
     "magnetometer.noise_nT": (NUM, True, None),
     "magnetometer.epoch_decimal_year": (NUM, True, None),
+    "magnetometer.lever_arm_b_m": (vec(3), False, [0.0, 0.0, 0.0]),      # its frame on /tf_static only
     "graph.real_time_factor": (NUM, False, 3.0),
     "graph.clock_rate_hz": (NUM, False, 50.0),
     "graph.truth_rate_hz": (NUM, False, 50.0),
     "graph.qos_depth": (INT, False, 2000),
+    # wall-clock period of every node's /diagnostics status (its heartbeat)
+    "graph.diagnostics_period_s": (NUM, False, 1.0),
+    # liveness monitor (nodes/monitor.py): a node silent for heartbeat_timeout_s
+    # (wall) is reported dead, one never heard of within startup_timeout_s (wall)
+    # as not started; a stream that does not advance for stream_timeout_s of sim
+    # time (at least 3 periods of its nominal rate) is reported missing
+    "monitor.heartbeat_timeout_s": (NUM, False, 5.0),
+    "monitor.startup_timeout_s": (NUM, False, 60.0),
+    "monitor.stream_timeout_s": (NUM, False, 3.0),
     "filter.initial_error.pos_enu_m": (vec(3), True, None),
     "filter.initial_error.vel_enu_mps": (vec(3), True, None),
     "filter.initial_error.att_enu_arcmin": (vec(3), True, None),
@@ -73,9 +101,85 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "world", "virtual_gnss")
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world", "virtual_gnss")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
-            "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth"}
+            "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth",
+            "graph.diagnostics_period_s", "monitor.heartbeat_timeout_s", "monitor.startup_timeout_s",
+            "monitor.stream_timeout_s", "report.max_pos_rms_m", "report.max_vel_rms_mps", "report.max_att_rms_deg"}
+NON_NEGATIVE = {"gnss.latency_s", "report.skip_s", "magnetometer.noise_nT", "imu.gyro_arw_deg_per_sqrt_hr",
+                "imu.accel_vrw_ug_per_sqrt_hz"}
+RANGES = {"start.lat_deg": (-90.0, 90.0, "within (-90, 90)"), "start.lon_deg": (-180.0, 180.0, "within [-180, 180]")}
+MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
+# blocks whose nested content their own parser checks key by key (boost_glide_config,
+# hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids)
+OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources",   # filter.sources: sources.parse_sources
+                 "world", "virtual_gnss"}          # core.world.WorldConfig, hyper_nav_aiding VirtualGnssConfig
+
+
+def known_fields() -> dict[str, frozenset]:
+    """Allowed keys of every block, by dotted block path ('' = top level):
+    the SCHEMA above plus the fields each model block's parser takes."""
+    from .baro_model import CONFIG_FIELDS as BARO_FIELDS
+    from .gnss import receiver
+    from .imu_model import CONFIG_FIELDS as IMU_FIELDS, IGNORED_FIELDS as IMU_IGNORED
+    from .lever_arm import _DEFAULTS as LEVER_ARM_FIELDS
+    from .mag_model import CONFIG_FIELDS as MAG_FIELDS
+    from .radar import EarlyWarningRadar
+    tree: dict[str, set] = {}
+    for dotted in SCHEMA:
+        parts = dotted.split(".")
+        for i in range(len(parts)):
+            tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
+    tree[""] |= set(OPTIONAL_BLOCKS)
+    tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED)
+    tree["gnss"] |= {"raw"}
+    tree["gnss.raw"] = set(receiver._TOP_FIELDS)
+    tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
+    tree["gnss.raw.lock"] = set(receiver._LOCK_FIELDS)
+    tree["magnetometer"] |= set(MAG_FIELDS)
+    tree["filter"] |= {"config", "sources"}
+    tree["filter.config"] = {f.name for f in fields(FilterConfig) if f.init}   # the filter's declarations
+    tree["lever_arm"] = set(LEVER_ARM_FIELDS)
+    tree["barometer"] = set(BARO_FIELDS) | {"rate_hz"}
+    tree["radar"] = {f.name for f in fields(EarlyWarningRadar)}
+    return {k: frozenset(v) for k, v in tree.items()}
+
+
+def check_known_keys(data: dict, path: str = "", tree: dict | None = None) -> None:
+    """ScenarioError (without the source) for the first unknown key anywhere in
+    ``data``, with the nearest known name; maneuver entries too."""
+    tree = known_fields() if tree is None else tree
+    allowed = tree.get(path)
+    for key, value in data.items():
+        child = f"{path}.{key}" if path else str(key)
+        if allowed is not None and key not in allowed:
+            raise ScenarioError(unknown_field(f"{path}." if path else "", key, allowed))
+        if child in OPAQUE_BLOCKS:
+            continue
+        if isinstance(value, dict) and child in tree:
+            check_known_keys(value, child, tree)
+        if child == "maneuvers" and isinstance(value, list):
+            for i, m in enumerate(value):
+                if isinstance(m, dict):
+                    for k in m:
+                        if k not in MANEUVER_KEYS:
+                            raise ScenarioError(unknown_field(f"maneuvers[{i}].", k, MANEUVER_KEYS))
+
+
+def check_override_key(dotted: str, tree: dict | None = None) -> None:
+    """ScenarioError if a ``--set`` field names no known field (with a suggestion)."""
+    tree = known_fields() if tree is None else tree
+    parts = dotted.split(".")
+    for i, part in enumerate(parts):
+        parent = ".".join(parts[:i])
+        if parent in OPAQUE_BLOCKS or parent not in tree:
+            return
+        if part not in tree[parent]:
+            hint = suggestion(part, tree[parent])
+            what = f"--set {dotted}: unknown field '{'.'.join(parts[:i + 1])}'"
+            if hint:
+                raise ScenarioError(f"{what}; did you mean '{'.'.join(parts[:i] + [hint])}'?")
+            raise ScenarioError(f"{what} (known in {parent or 'the top level'}: {', '.join(sorted(tree[parent]))})")
 
 
 def scenario_dirs() -> list[pathlib.Path]:
@@ -180,7 +284,10 @@ class Scenario:
 
     def filter_initial_state(self):
         """The filter's initial nominal state: truth at t = 0 plus the
-        scenario's initial errors (what an alignment would hand over)."""
+        scenario's initial errors (what an alignment would hand over), with
+        the fields of an optional ``filter.initial_state`` block over it
+        (``hyper_nav_filter.core.initial_state``: any of position, velocity,
+        attitude, initial bias and scale-factor values)."""
         from hyper_nav_filter.core import earth
         from hyper_nav_filter.core.attitude import rotvec_to_C
         from hyper_nav_filter.core.nav_state import NavState
@@ -188,11 +295,12 @@ class Scenario:
         d_pos = np.asarray(self["filter.initial_error.pos_enu_m"], float)
         r_m, r_n = earth.radii(tr.lat_rad[0])
         lat = tr.lat_rad[0] + d_pos[1] / (r_m + tr.alt_m[0])
-        lon = tr.lon_rad[0] + d_pos[0] / ((r_n + tr.alt_m[0]) * np.cos(tr.lat_rad[0]))
+        lon = earth.wrap_lon_rad(float(tr.lon_rad[0] + d_pos[0] / ((r_n + tr.alt_m[0]) * np.cos(tr.lat_rad[0]))))
         phi = np.deg2rad(np.asarray(self["filter.initial_error.att_enu_arcmin"], float) / 60.0)
         C = rotvec_to_C(-phi) @ tr.C_b_n[0]          # C_est = (I - [phi x]) C_true
-        return NavState(0.0, lat, lon, tr.alt_m[0] + d_pos[2],
-                        tr.vel_enu_mps[0] + np.asarray(self["filter.initial_error.vel_enu_mps"], float), C)
+        nav = NavState(0.0, lat, lon, tr.alt_m[0] + d_pos[2],
+                       tr.vel_enu_mps[0] + np.asarray(self["filter.initial_error.vel_enu_mps"], float), C)
+        return initial_state_block(self.data, nav)
 
     def filter_config(self) -> FilterConfig:
         return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
@@ -224,11 +332,57 @@ class Scenario:
         return np.random.default_rng([self["seed"], sum(stream.encode())])
 
 
+def _coerce(typ, value):
+    """An integer where a number is expected becomes a float (ROS parameters
+    declared as double refuse an integer); lists of numbers likewise."""
+    if typ == NUM:
+        return float(value)
+    if isinstance(typ, tuple):
+        return [float(x) for x in value]
+    return value
+
+
+def _check_range(field: str, value) -> None:
+    vals = value if isinstance(value, list) else [value]
+    if field in POSITIVE and any(v <= 0 for v in vals):
+        raise ScenarioError(f"{field}: must be > 0, got {value!r}")
+    if (field in NON_NEGATIVE) and any(v < 0 for v in vals):
+        raise ScenarioError(f"{field}: must be >= 0, got {value!r}")
+    if "sigma" in field.rsplit(".", 1)[-1] and any(v <= 0 for v in vals):
+        raise ScenarioError(f"{field}: a standard deviation must be > 0, got {value!r}")
+    if field in RANGES:
+        lo, hi, text = RANGES[field]
+        inside = lo < value < hi if field == "start.lat_deg" else lo <= value <= hi
+        if not inside:
+            raise ScenarioError(f"{field}: must be {text}, got {value!r}")
+
+
+def _check_filter_config(cfg: dict) -> dict:
+    """``filter.config`` checked and coerced by the filter's own parameter
+    declarations (``hyper_nav_filter.core.params``: types, ranges, every
+    sigma > 0, an integer where a float is declared becomes a float); lists
+    stay lists so the file can be written back."""
+    from hyper_nav_filter.core.config import ALL_PARAMS
+    from hyper_nav_filter.core.params import check_all
+    try:
+        coerced = check_all(ALL_PARAMS, cfg, "filter.config.")
+    except ConfigError as exc:
+        raise ScenarioError(str(exc)) from None
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in coerced.items() if k in cfg}
+
+
 def validate(data, source: str = "<dict>") -> dict:
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: top level must be a mapping")
-    data = copy.deepcopy(data)
+    data = _drop_nulls(copy.deepcopy(data))
+    try:
+        check_known_keys(data)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
     dynamic = "flight" in data
+    if dynamic and "start" in data:
+        raise ScenarioError(f"{source}: start: not used with a 'flight:' block (the flight starts at "
+                            f"flight.start); remove it ('start: null' in a file that extends a kinematic scenario)")
     for field, (typ, required, default) in SCHEMA.items():
         if dynamic and field.startswith(KINEMATIC_ONLY):
             continue
@@ -239,14 +393,18 @@ def validate(data, source: str = "<dict>") -> dict:
                 raise ScenarioError(f"{source}: missing required field '{field}'") from None
             _set(data, field, default)
             continue
-        if value is None and not required:
-            continue
         try:
             _check_type(field, typ, value)
+            value = _coerce(typ, value)
+            _check_range(field, value)
         except ScenarioError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
-        if field in POSITIVE and value <= 0:
-            raise ScenarioError(f"{source}: {field}: must be > 0, got {value!r}")
+        _set(data, field, value)
+    try:
+        from .wmm import WmmDateError, release_for
+        release_for(data["magnetometer"]["epoch_decimal_year"])
+    except WmmDateError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
     for i, m in enumerate(data.get("maneuvers", []) or []):
         where = f"maneuvers[{i}]"
         if not isinstance(m, dict):
@@ -256,19 +414,48 @@ def validate(data, source: str = "<dict>") -> dict:
         for key in ("t_start_s", "duration_s", "delta"):
             if key not in m:
                 raise ScenarioError(f"{source}: missing required field '{where}.{key}'")
-            _check_type(f"{where}.{key}", NUM, m[key])
+            try:
+                _check_type(f"{where}.{key}", NUM, m[key])
+            except ScenarioError as exc:
+                raise ScenarioError(f"{source}: {exc}") from None
+            m[key] = float(m[key])
         if m["duration_s"] <= 0:
             raise ScenarioError(f"{source}: {where}.duration_s: must be > 0")
+    try:
+        if "config" in data["filter"]:
+            if not isinstance(data["filter"]["config"], dict):
+                raise ScenarioError(f"filter.config: expected a mapping, got {data['filter']['config']!r}")
+            data["filter"]["config"] = _check_filter_config(data["filter"]["config"])
+    except ScenarioError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
     try:
         cfg = FilterConfig.from_dict((data.get("filter") or {}).get("config", {}) or {})
     except (ConfigError, TypeError) as exc:
         raise ScenarioError(f"{source}: filter.config: {exc}") from None
+    try:
+        initial_state_block(data, None, check_only=True)
+    except ConfigError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
     try:
         make_sources(parse_sources(filter_sources(data)), cfg)
     except ConfigError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
     _validate_models(data, source)
     return data
+
+
+def initial_state_block(data: dict, base, check_only: bool = False):
+    """``base`` with the fields of ``filter.initial_state`` over it (or, with
+    check_only, just validate the block; errors name the field)."""
+    from hyper_nav_filter.core.initial_state import INIT_PARAMS, from_block
+    from hyper_nav_filter.core.params import check_all
+    block = (data.get("filter") or {}).get("initial_state")
+    if block is not None and not isinstance(block, dict):
+        raise ConfigError(f"filter.initial_state: expected a mapping, got {block!r}")
+    if check_only:
+        check_all(INIT_PARAMS, block or {}, "filter.initial_state.")
+        return None
+    return base if not block else from_block(block, base, "filter.initial_state.")
 
 
 def filter_sources(data: dict) -> dict:
@@ -318,6 +505,14 @@ def _validate_models(data: dict, source: str) -> None:
                 VirtualGnssConfig.from_config(data["virtual_gnss"])
             except ValueError as exc:
                 raise ScenarioError(f"{source}: {exc}") from None
+    if "tracker" in data:
+        from hyper_nav_filter.core.tracking.config import TrackerConfig
+        try:
+            TrackerConfig.from_dict(data["tracker"])
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: {exc}") from None
+        if "radar" not in data:
+            raise ScenarioError(f"{source}: tracker: needs a radar block (the tracker's input)")
     raw = (data.get("gnss") or {}).get("raw")
     if raw is not None:
         from .gnss.receiver import GnssReceiverConfig
@@ -327,7 +522,8 @@ def _validate_models(data: dict, source: str) -> None:
             msg = str(exc)
             raise ScenarioError(f"{source}: {msg if msg.startswith('gnss') else 'gnss.raw.' + msg}") from None
     if "flight" in data and "maneuvers" in data:
-        raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both")
+        raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both "
+                            f"(a file that extends a kinematic scenario removes them with 'maneuvers: null')")
 
 
 def _read_yaml(path) -> dict:
@@ -339,23 +535,49 @@ def _read_yaml(path) -> dict:
 
 def _merge(base: dict, over: dict) -> dict:
     """``over`` on top of ``base``: mappings merge key by key, anything else
-    (numbers, strings, lists) replaces."""
+    (numbers, strings, lists) replaces; ``None`` (YAML null) removes the key."""
     out = copy.deepcopy(base)
     for k, v in over.items():
-        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else copy.deepcopy(v)
+        if v is None:
+            out.pop(k, None)
+        elif isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
     return out
 
 
+def _drop_nulls(d):
+    """A mapping without its null-valued keys (null = not given), recursively."""
+    if not isinstance(d, dict):
+        return d
+    return {k: _drop_nulls(v) for k, v in d.items() if v is not None}
+
+
+def _find_base(base_name: str, path: pathlib.Path) -> pathlib.Path:
+    """``extends:`` target: a path or name relative to the extending file's
+    directory first, then an installed scenario name."""
+    here = pathlib.Path(path).resolve().parent
+    cands = [here / base_name]
+    if pathlib.Path(base_name).suffix not in (".yaml", ".yml"):
+        cands.append(here / f"{base_name}.yaml")
+    for cand in cands:
+        if cand.is_file():
+            return cand
+    return find_scenario(base_name)
+
+
 def _resolve_extends(raw, path, seen=()) -> dict:
-    """A scenario file may start from another one: ``extends: <scenario name>``
-    and only the fields that differ (merged by ``_merge``)."""
+    """A scenario file may start from another one: ``extends: <scenario name
+    or path>`` (relative to this file's directory, then installed names) and
+    only the fields that differ (merged by ``_merge``; null removes)."""
     if not isinstance(raw, dict) or "extends" not in raw:
         return raw
     base_name = raw["extends"]
     if not isinstance(base_name, str):
         raise ScenarioError(f"{path}: extends: expected a scenario name, got {base_name!r}")
     try:
-        base_path = find_scenario(base_name)
+        base_path = _find_base(base_name, path).resolve()
     except ScenarioError as exc:
         raise ScenarioError(f"{path}: extends: {exc}") from None
     if base_path in seen:
@@ -366,5 +588,5 @@ def _resolve_extends(raw, path, seen=()) -> dict:
 
 def load_scenario(name_or_path: str) -> Scenario:
     path = find_scenario(str(name_or_path))
-    raw = _resolve_extends(_read_yaml(path), path)
+    raw = _resolve_extends(_read_yaml(path), pathlib.Path(path).resolve())
     return Scenario(path, validate(raw, str(path)))

@@ -13,6 +13,8 @@ with the Earth model of ``hyper_nav_filter.core.earth``, and are integrated to
 increments over each IMU interval by 4-point Gauss-Legendre quadrature, so an
 error-free IMU through the mechanization reproduces the truth.
 
+Longitude is integrated unbounded and wrapped to [-180, 180) deg on output.
+
 Body attitude: heading = psi, pitch = gamma + alpha, roll = roll maneuvers +
 coordinated bank atan(V cos(gamma) psi_dot / g0) during turns.
 """
@@ -188,7 +190,8 @@ class Trajectory:
         sb, cb, sc, cc = np.sin(-pitch), np.cos(-pitch), np.sin(roll), np.cos(roll)
         omega_nb_b = np.stack([cd - ad * sb, bd * cc + ad * cb * sc, -bd * sc + ad * cb * cc], axis=-1)
         omega_ib_b, f_b = inertial_rates(lat, alt, vel, vdot, C_b_n, omega_nb_b)
-        return TruthSample(t, lat, lon, alt, vel, C_b_n, omega_ib_b, f_b, roll, pitch, np.mod(psi, 2 * np.pi))
+        return TruthSample(t, lat, earth.wrap_lon_rad(lon), alt, vel, C_b_n, omega_ib_b, f_b, roll, pitch,
+                           np.mod(psi, 2 * np.pi))
 
     def imu_increments(self, t_end_s, dt_s):
         """Exact increments (dtheta_b_rad, dvel_b_mps), each (N, 3), over the

@@ -21,7 +21,7 @@ from .sensor_base import ClockDrivenSensor
 class ImuNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("imu")
-        self.frame_id = self.declare_parameter("frame_id", "base_link").value
+        self.frame_id = self.declare_parameter("frame_id", "imu_link").value
         sc = self.scenario
         self.stream = simulate.imu_stream(sc, sc.trajectory())
         err = ImuErrors.from_scenario(sc)

@@ -14,7 +14,7 @@ from .sensor_base import ClockDrivenSensor
 class MagNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("magnetometer")
-        self.frame_id = self.declare_parameter("frame_id", "base_link").value
+        self.frame_id = self.declare_parameter("frame_id", "magnetometer").value
         sc = self.scenario
         self.t_s, self.field_T = simulate.mag_stream(sc, sc.trajectory())
         var = (sc["magnetometer.noise_nT"] * 1e-9) ** 2

@@ -7,9 +7,18 @@ Parameters:
     qos_depth (2000)             KEEP_LAST depth of the reliable, volatile subscriptions
 
 Log time of each message = receive time on the node clock (ns; /clock time with
-use_sim_time:=true). /rosout and /parameter_events are never recorded.
+use_sim_time:=true, as run_graph starts it: the bag's timeline is then sim time,
+and the player replays it on sim time). /rosout and /parameter_events are never recorded.
+A topic is recorded once it has a publisher: the publishers' offered QoS
+profiles go into the bag (``offered_qos_profiles``, as rosbag2 records them)
+and the subscription adapts to them as ``ros2 bag record`` does (reliable if
+every publisher is reliable, transient local if every one is, e.g.
+``gnss/ephemeris``, so its history is recorded even if it was published
+before the recorder subscribed).
 Publishes the per-topic counts every second on /recorder/counts
-(diagnostic_msgs/DiagnosticArray, status "recorder", key=topic, value=count).
+(diagnostic_msgs/DiagnosticArray, status "recorder", key=topic, value=count)
+and its status with a ``heartbeat`` on /diagnostics ("hyper_nav_sim: recorder",
+``recorded <topic>``) every ``diagnostics_period_s`` (1.0 s).
     drain_quiet_s (0.5), drain_max_s (10.0)   on SIGINT/SIGTERM, keep taking messages
                                  until none arrived for drain_quiet_s (at most drain_max_s)
 
@@ -26,13 +35,15 @@ from functools import partial
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-from hyper_nav_sim.core.bag import BagWriter, typestore
+from hyper_nav_sim.core.bag import INFINITE, BagWriter, playback_qos, qos_profile, typestore
+from hyper_nav_sim.nodes.status import NodeStatus
 
 NEVER_RECORD = frozenset({"/rosout", "/parameter_events"})
 
@@ -63,17 +74,17 @@ class Recorder(Node):
         period = self.declare_parameter("discovery_period_s", 0.2).value
         self.declare_parameter("drain_quiet_s", 0.5)
         self.declare_parameter("drain_max_s", 10.0)
-        self.qos = QoSProfile(
-            reliability=ReliabilityPolicy.RELIABLE,
-            history=HistoryPolicy.KEEP_LAST,
-            depth=self.declare_parameter("qos_depth", 2000).value,
-            durability=DurabilityPolicy.VOLATILE,
-        )
+        self.depth = int(self.declare_parameter("qos_depth", 2000).value)
         self.bag = BagWriter(output)
         self.subs = {}  # topic -> subscription (None: not recordable)
         self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
-        self.create_timer(period, self.discover)
-        self.create_timer(1.0, self.publish_counts)
+        self.status = NodeStatus(self, "hyper_nav_sim: recorder")
+        # wall-clock timers: with use_sim_time the node clock stands still until /clock starts
+        wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(period, self.discover, clock=wall)
+        self.create_timer(1.0, self.publish_counts, clock=wall)
+        self.create_timer(float(self.declare_parameter("diagnostics_period_s", 1.0).value), self.publish_status,
+                          clock=wall)
         self.get_logger().info(f"recording into {output}")
 
     @property
@@ -85,6 +96,9 @@ class Recorder(Node):
         for topic, types in self.get_topic_names_and_types():
             if topic in self.subs or topic in NEVER_RECORD or (self.wanted and topic not in self.wanted):
                 continue
+            offered = [offered_profile(info.qos_profile) for info in self.get_publishers_info_by_topic(topic)]
+            if not offered:
+                continue            # no publisher (yet): rosbag2 records topics that have one
             msgtype, self.subs[topic] = types[0], None
             if msgtype not in typestore().types:
                 self.get_logger().warning(f"not recording {topic}: type {msgtype} unknown to the typestore")
@@ -95,8 +109,17 @@ class Recorder(Node):
                 self.get_logger().warning(f"not recording {topic}: {exc}")
                 continue
             callback = partial(self.on_message, topic, msgtype)
-            self.subs[topic] = self.create_subscription(cls, topic, callback, self.qos, raw=True)
-            self.get_logger().info(f"recording {topic} [{msgtype}]")
+            adapted = playback_qos(offered)
+            qos = QoSProfile(
+                reliability=ReliabilityPolicy.RELIABLE if adapted["reliability"] == "reliable"
+                else ReliabilityPolicy.BEST_EFFORT,
+                durability=DurabilityPolicy.TRANSIENT_LOCAL if adapted["durability"] == "transient_local"
+                else DurabilityPolicy.VOLATILE,
+                history=HistoryPolicy.KEEP_LAST, depth=max(self.depth, adapted["depth"]))
+            self.bag.add_topic(topic, msgtype, offered)
+            self.subs[topic] = self.create_subscription(cls, topic, callback, qos, raw=True)
+            self.get_logger().info(f"recording {topic} [{msgtype}] ({adapted['reliability']}, "
+                                   f"{adapted['durability']})")
 
     def on_message(self, topic: str, msgtype: str, raw: bytes):
         self.bag.write(topic, msgtype, self.get_clock().now().nanoseconds, raw)
@@ -110,12 +133,29 @@ class Recorder(Node):
         self.counts_pub.publish(msg)
         self.bag.flush()
 
+    def publish_status(self, finished: bool = False):
+        self.status.publish("ok", f"{sum(self.counts.values())} messages",
+                            {f"recorded {t.lstrip('/')}": n for t, n in self.counts.items()}, finished=finished)
+
     def close(self):
         """Finish the bag (metadata.yaml) and print the per-topic counts."""
         self.bag.close()
         print(f"recorder: closed {self.bag.path}", flush=True)
         for topic, n in sorted(self.counts.items()):
             print(f"  {topic}: {n}", flush=True)
+
+
+def offered_profile(qos) -> dict:
+    """An rclpy QoSProfile (as graph introspection reports a publisher's) ->
+    the rosbag2 metadata form (:func:`hyper_nav_sim.core.bag.qos_profile`)."""
+    def duration(d):
+        ns = int(getattr(d, "nanoseconds", 0))
+        return dict(INFINITE) if ns <= 0 or ns >= 2**63 - 1 else {"sec": ns // 10**9, "nsec": ns % 10**9}
+    return qos_profile(reliability=qos.reliability.name.lower(), durability=qos.durability.name.lower(),
+                       history=qos.history.name.lower(), depth=int(qos.depth), deadline=duration(qos.deadline),
+                       lifespan=duration(qos.lifespan), liveliness=qos.liveliness.name.lower(),
+                       liveliness_lease_duration=duration(qos.liveliness_lease_duration),
+                       avoid_ros_namespace_conventions=bool(qos.avoid_ros_namespace_conventions))
 
 
 def main(args=None):
@@ -148,6 +188,7 @@ def main(args=None):
         pass
     finally:
         if node is not None:
+            node.publish_status(finished=True)
             node.close()
             node.destroy_node()
         rclpy.try_shutdown()

@@ -5,18 +5,24 @@ the deterministic truth (``hyper_nav_sim.core``), waits until each of its
 publishers has ``min_subscribers`` matched subscriptions, then subscribes to
 ``/clock`` and publishes every sample whose release time (epoch + latency)
 has been reached. ``header.stamp`` is always the measurement epoch.
+
+Its ``/diagnostics`` status (every ``diagnostics_period_s`` of wall time,
+from ``graph.diagnostics_period_s``) carries ``heartbeat``, ``scheduled
+<topic>`` (the node's whole stream), ``published <topic>``, ``last <topic>``
+(stamp of the last message) and ``sim_time_s``, so the liveness monitor and
+the report see a stream that stopped early, and when.
 """
 from __future__ import annotations
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.ros_util import diagnostic_array, publisher_qos
+from hyper_nav_filter.ros_util import publisher_qos
 
 from ..core.scenario import load_scenario
+from .status import NodeStatus
 
 
 class ClockDrivenSensor(Node):
@@ -26,13 +32,18 @@ class ClockDrivenSensor(Node):
         self.min_subscribers = self.declare_parameter("min_subscribers", 0).value
         self.qos = publisher_qos(self.declare_parameter("qos.depth", self.scenario["graph.qos_depth"]).value)
         self.latency_s = 0.0
-        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
+        self.status = NodeStatus(self, f"hyper_nav_sim: {name}")
         self.published = {}
+        self.scheduled = {}
+        self.last_stamp = {}
+        self.sim_time_s = None
         self._queue = []        # list of (release_t_s, epoch_t_s, topic, make_msg)
         self._next = 0
+        self._done_reported = False
         self._clock_sub = None
         self._wait_timer = self.create_timer(0.05, self._start_when_ready)
-        self.create_timer(1.0, self.publish_diagnostics)
+        period = self.declare_parameter("diagnostics_period_s", self.scenario["graph.diagnostics_period_s"]).value
+        self.create_timer(float(period), self.publish_diagnostics)
 
     def publishers_to_match(self):
         """Publishers that must see ``min_subscribers`` matched subscriptions
@@ -42,7 +53,11 @@ class ClockDrivenSensor(Node):
 
     def schedule(self, epochs_s, topic_publisher, make_msg):
         """Queue messages: make_msg(i) builds message i (epoch epochs_s[i])."""
-        for i, t in enumerate(np.asarray(epochs_s, float)):
+        epochs_s = np.asarray(epochs_s, float)
+        name = topic_publisher.topic_name.lstrip("/")
+        self.scheduled[name] = self.scheduled.get(name, 0) + len(epochs_s)
+        self.published.setdefault(name, 0)
+        for i, t in enumerate(epochs_s):
             self._queue.append((t + self.latency_s, t, topic_publisher, make_msg, i))
         self._queue.sort(key=lambda e: (e[0], e[1]))
 
@@ -56,12 +71,16 @@ class ClockDrivenSensor(Node):
 
     def _on_clock(self, msg: Clock):
         now = stamp_to_s(msg.clock)
+        self.sim_time_s = now
         while self._next < len(self._queue) and self._queue[self._next][0] <= now + 1e-9:
             _, t, pub, make_msg, i = self._queue[self._next]
             pub.publish(make_msg(i))
-            self.published[pub.topic_name] = self.published.get(pub.topic_name, 0) + 1
+            name = pub.topic_name.lstrip("/")
+            self.published[name] = self.published.get(name, 0) + 1
+            self.last_stamp[name] = t
             self._next += 1
-        if self._next == len(self._queue) and self._queue:
+        if self._next == len(self._queue) and self._queue and not self._done_reported:
+            self._done_reported = True          # the whole stream is out: say so at once
             self.publish_diagnostics()
 
     def on_shutdown(self):
@@ -70,9 +89,12 @@ class ClockDrivenSensor(Node):
 
     def publish_diagnostics(self):
         values = {f"published {k}": v for k, v in self.published.items()}
+        values.update({f"scheduled {k}": v for k, v in self.scheduled.items()})
+        values.update({f"last {k}": f"{t:.3f}" for k, t in self.last_stamp.items()})
         values["queued"] = len(self._queue)
-        self.pub_diag.publish(diagnostic_array(self, f"hyper_nav_sim: {self.get_name()}", True,
-                                               "done" if self._next == len(self._queue) else "running", values))
+        if self.sim_time_s is not None:
+            values["sim_time_s"] = f"{self.sim_time_s:.3f}"
+        self.status.publish("ok", "done" if self._next == len(self._queue) else "running", values)
 
     @staticmethod
     def stamp(msg, t_s: float, frame_id: str):

@@ -1,10 +1,19 @@
 """Truth node: sim-time source (``/clock``) and ``truth/state``.
 
 Advances sim time in steps of 1 / graph.clock_rate_hz, paced at
-graph.real_time_factor x wall time, once ``/clock`` has ``clock_subscribers``
+graph.real_time_factor x wall time, once each node named in ``clock_nodes``
+has a ``/clock`` subscription (by node name: a count would be fooled by a node
+with two, e.g. a recorder on sim time) and ``/clock`` has ``clock_subscribers``
 matched subscriptions and ``truth/state`` has ``min_subscribers``. Publishes
 the exact truth (hyper_nav_msgs/NavState, mode TRUTH) at graph.truth_rate_hz,
 and exits ``tail_s`` of sim time after the scenario ends.
+
+Waiting for ``wait_topics`` as well: topics (e.g. ``nav/odom``) whose
+subscriber count must reach ``wait_counts`` before the clock starts, so a
+test's or user's own subscriber sees the first message (``Graph(...,
+extra_subscribers=...)``). Its ``/diagnostics`` status carries ``sim_time_s``
+and ``heartbeat`` every ``diagnostics_period_s`` of wall time, and a last one
+with ``finished: true``.
 """
 from __future__ import annotations
 
@@ -12,7 +21,6 @@ import time
 
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from hyper_nav_msgs.msg import NavState
 from rclpy.duration import Duration
 from rclpy.node import Node
@@ -20,10 +28,12 @@ from rosgraph_msgs.msg import Clock
 
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
-from hyper_nav_filter.ros_util import all_matched, diagnostic_array, publisher_qos, run_node
+from hyper_nav_filter.ros_util import all_matched, publisher_qos, run_node
 
 from ..core.imu_model import ImuErrors
 from ..core.scenario import load_scenario
+from .recorder import string_array_param
+from .status import NodeStatus
 
 
 class TruthNode(Node):
@@ -32,14 +42,23 @@ class TruthNode(Node):
         sc = self.scenario = load_scenario(self.declare_parameter("scenario", "default").value)
         self.rtf = float(self.declare_parameter("real_time_factor", sc["graph.real_time_factor"]).value)
         self.clock_subscribers = self.declare_parameter("clock_subscribers", 0).value
+        self.clock_nodes = set(string_array_param(self, "clock_nodes"))
         self.min_subscribers = self.declare_parameter("min_subscribers", 0).value
+        self.wait_topics = string_array_param(self, "wait_topics")
+        self.declare_parameter("wait_counts", [0])
+        self.wait_counts = list(self.get_parameter("wait_counts").value)
+        if len(self.wait_counts) != len(self.wait_topics) and self.wait_topics:
+            raise ValueError(f"wait_counts {self.wait_counts} must give one count per wait_topics entry "
+                             f"{self.wait_topics}")
         self.tail_s = float(self.declare_parameter("tail_s", 1.0).value)
         self.enu_frame = self.declare_parameter("frames.enu", "enu").value
         self.body_frame = self.declare_parameter("frames.body", "base_link").value
         qos = publisher_qos(sc["graph.qos_depth"])
         self.pub_clock = self.create_publisher(Clock, "/clock", qos)
         self.pub_truth = self.create_publisher(NavState, "truth/state", qos)
-        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
+        self.status = NodeStatus(self, "hyper_nav_sim: truth")
+        period = self.declare_parameter("diagnostics_period_s", sc["graph.diagnostics_period_s"]).value
+        self.create_timer(float(period), self._diag)
         self.step_s = 1.0 / sc["graph.clock_rate_hz"]
         self.n_steps = int(np.ceil((sc["duration_s"] + self.tail_s) / self.step_s - 1e-9))
         truth_every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
@@ -55,8 +74,10 @@ class TruthNode(Node):
         self.timer = self.create_timer(0.05, self._wait)
 
     def _wait(self):
-        if not (self.pub_clock.get_subscription_count() >= self.clock_subscribers
-                and all_matched([self.pub_truth], self.min_subscribers)):
+        subscribed = {i.node_name for i in self.get_subscriptions_info_by_topic(self.pub_clock.topic_name)}
+        if not (self.pub_clock.get_subscription_count() >= self.clock_subscribers and self.clock_nodes <= subscribed
+                and all_matched([self.pub_truth], self.min_subscribers)
+                and all(self.count_subscribers(t) >= n for t, n in zip(self.wait_topics, self.wait_counts))):
             return
         self.timer.cancel()
         self.get_logger().info(f"subscribers matched; flying {self.scenario.name} at {self.rtf}x real time")
@@ -79,7 +100,7 @@ class TruthNode(Node):
             self.timer.cancel()
             self._diag()
             # reliable delivery: wait until every subscriber acknowledged
-            for pub in (self.pub_clock, self.pub_truth, self.pub_diag):
+            for pub in (self.pub_clock, self.pub_truth, self.status.pub):
                 pub.wait_for_all_acked(Duration(seconds=10.0))
             self.get_logger().info("scenario finished")
             rclpy.try_shutdown()
@@ -105,9 +126,14 @@ class TruthNode(Node):
             self.counts["published truth/state"] += 1
             self._truth_idx += 1
 
+    def on_shutdown(self):
+        """Final status on SIGINT/SIGTERM (ros_util.run_node): exact counts."""
+        self._diag()
+
     def _diag(self):
-        self.pub_diag.publish(diagnostic_array(self, "hyper_nav_sim: truth", True,
-                                               "done" if self.done else "running", self.counts))
+        values = dict(self.counts, sim_time_s=f"{max(self.k - 1, 0) * self.step_s:.3f}")
+        self.status.publish("ok", "done" if self.done else ("running" if self.t_wall0 else "waiting for subscribers"),
+                            values, finished=self.done)
 
 
 def main(args=None):

@@ -82,7 +82,10 @@ class BroadcastEphemeris:
     re-referenced to the toe week if it falls across a week boundary) in the
     system's time (GPST or BDT). Angles in rad, rates in rad/s, ``sqrtA`` in
     m^0.5, ``c**`` radian/metre harmonic amplitudes, clock terms in s, s/s,
-    s/s^2; ``tgd`` [s] is TGD (GPS, L1/L2) or TGD1 (BDS, B1I/B3I)."""
+    s/s^2; ``tgd`` [s] is TGD (GPS, L1/L2) or TGD1 (BDS, B1I/B3I).
+    ``iode``: issue of data (GPS IODE, BDS AODE; -1 = not known) and
+    ``health``: the broadcast satellite health word (GPS SV health, BDS SatH1),
+    0 = healthy; :func:`select_ephemeris` never picks an unhealthy record."""
     system: str
     prn: int
     toe: float
@@ -107,6 +110,8 @@ class BroadcastEphemeris:
     af1: float
     af2: float
     tgd: float = 0.0
+    iode: int = -1
+    health: int = 0
 
     @property
     def sat_id(self) -> str:
@@ -215,9 +220,12 @@ def satellite_position_ecef(eph: BroadcastEphemeris, t_s, dt_s=0.0):
 
 
 def select_ephemeris(ephs, sat_id: str, t_s: float, max_age_s: float | None = None):
-    """Record of satellite ``sat_id`` whose toe is nearest ``t_s`` (system time);
-    None if none, or if |t - toe| > max_age_s (default 7200 s GPS, 3600 s BDS)."""
-    cands = [e for e in ephs if e.sat_id == sat_id]
+    """Healthy record of satellite ``sat_id`` whose toe is nearest ``t_s``
+    (system time); None if there is none, or if |t - toe| > max_age_s (default
+    7200 s GPS, 3600 s BDS). Records with a non-zero health word are skipped
+    (IS-GPS-200 20.3.3.3.1.4; BDS-SIS-ICD 5.2.4.6): a satellite flagged
+    unhealthy is not used even if its record is the nearest."""
+    cands = [e for e in ephs if e.sat_id == sat_id and e.health == 0]
     if not cands:
         return None
     best = min(cands, key=lambda e: abs(t_s - e.toe_s))
@@ -236,13 +244,16 @@ def _fields(line: str, start: int, n: int = 4) -> list[float]:
 
 
 def _build(system, prn, toc_s, clk, orb) -> BroadcastEphemeris:
-    """orb: 7 broadcast-orbit lines of 4 values (RINEX order)."""
-    (_, crs, dn, m0), (cuc, e, cus, sqa), (toe, cic, om0, cis), (i0, crc, w, omd), \
-        (idot, _, week, _), (_, _, tgd, _) = orb[:6]
+    """orb: 7 broadcast-orbit lines of 4 values (RINEX order). Orbit line 1
+    starts with IODE (GPS) / AODE (BDS); line 6 holds SV accuracy, health
+    (GPS SV health / BDS SatH1), TGD (TGD1) and IODC (TGD2)."""
+    (iode, crs, dn, m0), (cuc, e, cus, sqa), (toe, cic, om0, cis), (i0, crc, w, omd), \
+        (idot, _, week, _), (_, health, tgd, _) = orb[:6]
     week = int(round(week))
     toc = toc_s - week * SECONDS_PER_WEEK
     return BroadcastEphemeris(system, prn, toe, toc, week, sqa, e, i0, om0, w, m0, dn, idot, omd,
-                              cuc, cus, crc, crs, cic, cis, clk[0], clk[1], clk[2], tgd)
+                              cuc, cus, crc, crs, cic, cis, clk[0], clk[1], clk[2], tgd,
+                              iode=int(round(iode)), health=int(round(health)))
 
 
 def read_rinex2_nav(path):

@@ -1,0 +1,196 @@
+"""Generic text/CSV tables with a column map -> arrays in SI, body FLU, ENU.
+
+A stream (``imu``, ``gnss``, ``truth``) is described by a mapping::
+
+    file: imu.csv              # path (relative to the import file)
+    delimiter: ","             # optional; default: commas if the first data line has one, else whitespace
+    skip_rows: 1               # header lines to skip (lines starting with '#' are always skipped)
+    time: {column: 0, unit: s}             # s | ms | us | ns
+    # imu
+    kind: increments           # increments (angle, velocity change per sample) | rates (rad/s, m/s^2)
+    gyro: {columns: [1, 2, 3], unit: rad}  # increments: rad | deg; rates: rad/s | deg/s | deg/h
+    accel: {columns: [4, 5, 6], unit: m/s} # increments: m/s; rates: m/s^2 | g | mg
+    body: FRD                  # FLU | FRD (x forward, y right, z down) | RFU (x right, y forward, z up)
+    # gnss / truth
+    lat: {column: 1, unit: deg}            # deg | rad
+    lon: {column: 2, unit: deg}
+    alt: {column: 3, unit: m}              # ellipsoidal height
+    sigma: {columns: [4, 5, 6], unit: m, frame: NED}    # position 1-sigma per axis (NED | ENU)
+    velocity: {columns: [7, 8, 9], frame: NED}          # optional, m/s
+    vel_sigma: {columns: [10, 11, 12], frame: NED}      # optional
+    attitude: {columns: [8, 9, 10], unit: deg}          # truth: roll, pitch, heading (aerospace angles)
+
+Columns count from 0. Every unit and frame is converted here, once
+(STYLE pattern 6); what leaves this module is SI, body FLU, ENU.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from hyper_nav_filter.core import units
+from hyper_nav_filter.core.earth import G0_MPS2
+from hyper_nav_filter.core.params import ConfigError
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+RATE_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "deg/h": float(units.deg_per_hr(1.0))}
+DVEL_UNITS = {"m/s": 1.0}
+ACCEL_UNITS = {"m/s^2": 1.0, "g": G0_MPS2, "mg": 1e-3 * G0_MPS2}
+LENGTH_UNITS = {"m": 1.0}
+SPEED_UNITS = {"m/s": 1.0}
+# body axes -> FLU: FLU = M @ v
+BODY_TO_FLU = {"FLU": np.eye(3), "FRD": np.diag([1.0, -1.0, -1.0]),
+               "RFU": np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])}
+NAV_TO_ENU = {"ENU": np.eye(3), "NED": np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])}
+
+
+@dataclass
+class ImuTable:
+    t_s: np.ndarray                 # end of each interval
+    dtheta_b_rad: np.ndarray        # (n, 3) body FLU increments over (t[k-1], t[k]]; row 0 has no interval
+    dvel_b_mps: np.ndarray
+
+
+@dataclass
+class FixTable:
+    t_s: np.ndarray
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+    alt_m: np.ndarray
+    pos_sigma_enu_m: np.ndarray | None = None      # (n, 3)
+    vel_enu_mps: np.ndarray | None = None
+    vel_sigma_enu_mps: np.ndarray | None = None
+    rph_rad: np.ndarray | None = None              # (n, 3) roll, pitch, heading (truth)
+
+
+def _unit(table: dict, unit: str, where: str) -> float:
+    if unit not in table:
+        raise ConfigError(f"{where}.unit: unknown unit {unit!r} (known: {', '.join(table)})")
+    return table[unit]
+
+
+def _frame(table: dict, name: str, where: str) -> np.ndarray:
+    if name not in table:
+        raise ConfigError(f"{where}: unknown frame {name!r} (known: {', '.join(table)})")
+    return table[name]
+
+
+def read_table(spec: dict, base_dir: pathlib.Path, where: str) -> np.ndarray:
+    """The numeric table of a stream (rows x columns, float)."""
+    if "file" not in spec:
+        raise ConfigError(f"{where}.file: required")
+    path = pathlib.Path(spec["file"])
+    path = path if path.is_absolute() else base_dir / path
+    if not path.exists():
+        raise ConfigError(f"{where}.file: {path} not found")
+    skip = int(spec.get("skip_rows", 0))
+    delim = spec.get("delimiter")
+    if delim is None:
+        with open(path) as f:
+            lines = [ln for ln in f.readlines()[skip:skip + 20] if ln.strip() and not ln.lstrip().startswith("#")]
+        delim = "," if lines and "," in lines[0] else None
+    try:
+        data = np.loadtxt(path, delimiter=delim, skiprows=skip, comments="#", ndmin=2)
+    except ValueError as exc:
+        raise ConfigError(f"{where}.file: {path}: not a numeric table ({exc})") from None
+    if not len(data):
+        raise ConfigError(f"{where}.file: {path}: no data rows")
+    return data
+
+
+def _cols(data: np.ndarray, field: dict, n: int, where: str) -> np.ndarray:
+    cols = field.get("columns", field.get("column"))
+    cols = [cols] if isinstance(cols, int) else cols
+    if not isinstance(cols, (list, tuple)) or len(cols) != n or not all(isinstance(c, int) for c in cols):
+        raise ConfigError(f"{where}.columns: expected {n} column number(s), got {cols!r}")
+    if max(cols) >= data.shape[1] or min(cols) < 0:
+        raise ConfigError(f"{where}.columns: {cols} outside the file's {data.shape[1]} columns")
+    out = data[:, cols].astype(float)
+    return out[:, 0] if n == 1 else out
+
+
+def _field(spec: dict, name: str, where: str, required: bool = True) -> dict | None:
+    f = spec.get(name)
+    if f is None:
+        if required:
+            raise ConfigError(f"{where}.{name}: required")
+        return None
+    if not isinstance(f, dict):
+        raise ConfigError(f"{where}.{name}: expected a mapping with 'column(s)' and 'unit', got {f!r}")
+    return f
+
+
+def _time(data, spec, where) -> np.ndarray:
+    f = _field(spec, "time", where)
+    t = _cols(data, f, 1, f"{where}.time") * _unit(TIME_UNITS, f.get("unit", "s"), f"{where}.time")
+    if np.any(np.diff(t) <= 0):
+        k = int(np.argmax(np.diff(t) <= 0))
+        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} ({t[k]!r} -> {t[k + 1]!r})")
+    return t
+
+
+def imu_table(spec: dict, base_dir, where: str = "imu") -> ImuTable:
+    """IMU samples as body-FLU increments (rates are integrated over the
+    stamp differences: increment = rate x (t[k] - t[k-1]), the sensor_msgs/Imu
+    convention of this project)."""
+    data = read_table(spec, base_dir, where)
+    t = _time(data, spec, where)
+    kind = spec.get("kind", "increments")
+    if kind not in ("increments", "rates"):
+        raise ConfigError(f"{where}.kind: expected 'increments' or 'rates', got {kind!r}")
+    g, a = _field(spec, "gyro", where), _field(spec, "accel", where)
+    if kind == "increments":
+        gs = _unit(ANGLE_UNITS, g.get("unit", "rad"), f"{where}.gyro")
+        as_ = _unit(DVEL_UNITS, a.get("unit", "m/s"), f"{where}.accel")
+    else:
+        gs = _unit(RATE_UNITS, g.get("unit", "rad/s"), f"{where}.gyro")
+        as_ = _unit(ACCEL_UNITS, a.get("unit", "m/s^2"), f"{where}.accel")
+    M = _frame(BODY_TO_FLU, spec.get("body", "FLU"), f"{where}.body")
+    w = _cols(data, g, 3, f"{where}.gyro") * gs @ M.T
+    f = _cols(data, a, 3, f"{where}.accel") * as_ @ M.T
+    if kind == "rates":
+        dt = np.diff(t, prepend=np.nan)[:, None]
+        w, f = w * dt, f * dt
+    return ImuTable(t, w, f)
+
+
+def fix_table(spec: dict, base_dir, where: str) -> FixTable:
+    """Positions (and optional velocities, sigmas, attitude) of a GNSS or truth file."""
+    data = read_table(spec, base_dir, where)
+    t = _time(data, spec, where)
+    out = {}
+    for name in ("lat", "lon"):
+        f = _field(spec, name, where)
+        out[name] = _cols(data, f, 1, f"{where}.{name}") * _unit(ANGLE_UNITS, f.get("unit", "deg"), f"{where}.{name}")
+    f = _field(spec, "alt", where)
+    alt = _cols(data, f, 1, f"{where}.alt") * _unit(LENGTH_UNITS, f.get("unit", "m"), f"{where}.alt")
+    tab = FixTable(t, out["lat"], out["lon"], alt)
+    for name, attr, table in (("sigma", "pos_sigma_enu_m", LENGTH_UNITS), ("velocity", "vel_enu_mps", SPEED_UNITS),
+                              ("vel_sigma", "vel_sigma_enu_mps", SPEED_UNITS)):
+        f = _field(spec, name, where, required=False)
+        if f is not None:
+            v = _cols(data, f, 3, f"{where}.{name}") * _unit(table, f.get("unit", "m" if table is LENGTH_UNITS
+                                                                              else "m/s"), f"{where}.{name}")
+            P = _frame(NAV_TO_ENU, f.get("frame", "ENU"), f"{where}.{name}.frame")
+            v = v @ P.T
+            setattr(tab, attr, np.abs(v) if "sigma" in name else v)
+    f = _field(spec, "attitude", where, required=False)
+    if f is not None:
+        tab.rph_rad = _cols(data, f, 3, f"{where}.attitude") * _unit(ANGLE_UNITS, f.get("unit", "deg"),
+                                                                      f"{where}.attitude")
+    return tab
+
+
+def window(tab, start_s: float | None, end_s: float | None):
+    """Rows with start_s <= t <= end_s (either may be None)."""
+    m = np.ones(len(tab.t_s), bool)
+    if start_s is not None:
+        m &= tab.t_s >= start_s - 1e-9
+    if end_s is not None:
+        m &= tab.t_s <= end_s + 1e-9
+    kw = {k: (v[m] if isinstance(v, np.ndarray) else v) for k, v in tab.__dict__.items()}
+    return type(tab)(**kw)

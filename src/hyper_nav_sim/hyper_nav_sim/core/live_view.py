@@ -1,0 +1,112 @@
+"""What the Foxglove view shows, computed from messages (duck-typed: rclpy
+messages live, rosbags messages from a bag). No rclpy, no foxglove here.
+
+* map points: truth (``truth/state``), fused (``nav/state``), GNSS
+  (``gnss/fix``) as (t, lat_deg, lon_deg, alt_m, ENU covariance);
+* transforms: ``/tf`` and ``/tf_static`` entries as plain dicts;
+* errors: at every ``nav/state`` epoch that has a ``truth/state`` of the same
+  stamp, the estimate-minus-truth errors of position (ENU m), velocity (ENU
+  m/s) and attitude (ENU deg) with the filter's own 1-sigma from the
+  covariance (the numbers of ``errors.png``, live).
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+
+from hyper_nav_filter.conversions import stamp_to_s
+from hyper_nav_filter.core import earth
+from hyper_nav_filter.core.attitude import attitude_error_n_rad, quat_xyzw_to_C
+
+_KEEP = 2000          # truth epochs kept for matching (the solution lags by output_delay_s)
+
+
+def stamp_ns(stamp) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _C(m) -> np.ndarray:
+    q = m.q_b_enu
+    return quat_xyzw_to_C([q.x, q.y, q.z, q.w])
+
+
+def navstate_point(m) -> dict:
+    """A map point of a NavState (position covariance from its ``pos`` block, if any)."""
+    cov = np.zeros(9)
+    n = int(m.state_dim)
+    if n:
+        start = 0
+        for entry in m.state_blocks:
+            name, size = entry.split(":")
+            if name == "pos":
+                P = np.asarray(m.covariance, float).reshape(n, n)
+                cov = P[start:start + 3, start:start + 3].ravel()
+            start += int(size)
+    return {"t_ns": stamp_ns(m.header.stamp), "lat_deg": float(np.rad2deg(m.lat_rad)),
+            "lon_deg": float(np.rad2deg(m.lon_rad)), "alt_m": float(m.alt_m), "cov_enu": [float(x) for x in cov],
+            "heading_rad": float(m.heading_rad), "vel_enu_mps": [float(x) for x in m.vel_enu_mps]}
+
+
+def navsatfix_point(m) -> dict:
+    return {"t_ns": stamp_ns(m.header.stamp), "lat_deg": float(m.latitude), "lon_deg": float(m.longitude),
+            "alt_m": float(m.altitude), "cov_enu": [float(x) for x in m.position_covariance]}
+
+
+def transforms(tf_msg) -> list[dict]:
+    out = []
+    for t in tf_msg.transforms:
+        tr, q = t.transform.translation, t.transform.rotation
+        out.append({"t_ns": stamp_ns(t.header.stamp), "parent": t.header.frame_id, "child": t.child_frame_id,
+                    "translation": [tr.x, tr.y, tr.z], "rotation_xyzw": [q.x, q.y, q.z, q.w]})
+    return out
+
+
+def _sigmas(m) -> dict:
+    n = int(m.state_dim)
+    P = np.asarray(m.covariance, float).reshape(n, n)
+    d = np.sqrt(np.maximum(np.diag(P), 0.0))
+    out, start = {}, 0
+    for entry in m.state_blocks:
+        name, size = entry.split(":")
+        out[name] = d[start:start + int(size)]
+        start += int(size)
+    return out
+
+
+class ErrorTracker:
+    """Matches solutions to truth by stamp and returns the error record."""
+
+    def __init__(self):
+        self._truth: OrderedDict[int, object] = OrderedDict()
+
+    def on_truth(self, m) -> None:
+        self._truth[stamp_ns(m.header.stamp)] = m
+        while len(self._truth) > _KEEP:
+            self._truth.popitem(last=False)
+
+    def on_nav(self, m) -> dict | None:
+        tr = self._truth.get(stamp_ns(m.header.stamp))
+        if tr is None:
+            return None
+        pos = earth.position_error_enu_m(m.lat_rad, tr.lon_rad + earth.wrap_lon_rad(m.lon_rad - tr.lon_rad), m.alt_m,
+                                         tr.lat_rad, tr.lon_rad, tr.alt_m)
+        vel = np.asarray(m.vel_enu_mps, float) - np.asarray(tr.vel_enu_mps, float)
+        att = np.rad2deg(attitude_error_n_rad(_C(m), _C(tr)))
+        s = _sigmas(m)
+        return {"t_s": stamp_to_s(m.header.stamp),
+                "pos_err_enu_m": pos.tolist(), "pos_sigma_enu_m": s["pos"].tolist(),
+                "vel_err_enu_mps": vel.tolist(), "vel_sigma_enu_mps": s["vel"].tolist(),
+                "att_err_enu_deg": att.tolist(), "att_sigma_enu_deg": np.rad2deg(s["att"]).tolist(),
+                "pos_err_3d_m": float(np.linalg.norm(pos)), "mode": int(m.mode),
+                "last_nis": float(m.last_nis), "n_updates": int(m.n_updates)}
+
+
+ERRORS_SCHEMA = {
+    "type": "object", "title": "hyper_nav.Errors",
+    "properties": {k: {"type": "array", "items": {"type": "number"}} for k in (
+        "pos_err_enu_m", "pos_sigma_enu_m", "vel_err_enu_mps", "vel_sigma_enu_mps", "att_err_enu_deg",
+        "att_sigma_enu_deg")} | {"t_s": {"type": "number"}, "pos_err_3d_m": {"type": "number"},
+                                 "mode": {"type": "integer"}, "last_nis": {"type": "number"},
+                                 "n_updates": {"type": "integer"}},
+}

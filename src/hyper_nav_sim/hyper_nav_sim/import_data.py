@@ -1,0 +1,173 @@
+"""import_data: recorded IMU/GNSS text files from outside the project -> a
+rosbag2/MCAP bag for the fusion node and ``replay_filter``.
+
+    ros2run hyper_nav_sim import_data import.yaml --out bags/my_drive
+
+``import.yaml`` (paths relative to it)::
+
+    preset: kfgins                 # column maps of the KF-GINS formats (or give them, see core/importer/columns.py)
+    kfgins_config: kf-gins.yaml    # optional: noise, initial state, lever arm and window from a KF-GINS config
+    imu:   {file: Leador-A15.txt}  # + column map fields (time, kind, gyro, accel, body, ...)
+    gnss:  {file: GNSS-RTK.txt}
+    truth: {file: truth.nav}       # optional: recorded as truth/state, scores the run
+    start_s: 456300                # optional processing window (data time, s)
+    end_s: 456800
+    filter:                        # this project's filter block (over the kfgins_config one, if any)
+      config: {...}                # noise per axis, in any declared unit (core/params aliases)
+      initial_state: {...}         # omitted: from the truth at the first IMU epoch
+    report: {skip_s: 0.0}
+
+Writes ``<out>/`` (``<out>.mcap`` + ``metadata.yaml``: imu/data_raw,
+gnss/fix, gnss/vel when the GNSS file has velocities, truth/state) and
+``<out>/filter.yaml``, the validated filter setup ``replay_filter`` uses.
+The first IMU record only starts the time line (its interval is unknown);
+the initial state is at its epoch unless ``initial_state.t_s`` says otherwise.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import pathlib
+import sys
+
+import numpy as np
+import yaml
+
+from hyper_nav_filter.core import units
+from hyper_nav_filter.core.params import ConfigError
+from hyper_nav_filter.filter_setup import FilterSetup
+
+from .core.importer import columns, kfgins, messages
+
+PRESETS = {"kfgins": kfgins.preset}
+KNOWN = {"preset", "kfgins_config", "imu", "gnss", "truth", "start_s", "end_s", "filter", "report"}
+
+
+def _merge(base: dict, over: dict) -> dict:
+    out = copy.deepcopy(base)
+    for k, v in (over or {}).items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else copy.deepcopy(v)
+    return out
+
+
+def _stream_spec(doc: dict, stream: str, base_dir: pathlib.Path) -> dict | None:
+    spec = doc.get(stream)
+    if spec is None:
+        return None
+    if not isinstance(spec, dict):
+        raise ConfigError(f"{stream}: expected a mapping with at least 'file', got {spec!r}")
+    preset = doc.get("preset")
+    if preset is None:
+        return spec
+    if preset not in PRESETS:
+        raise ConfigError(f"preset: unknown {preset!r} (known: {', '.join(PRESETS)})")
+    n_cols = columns.read_table(spec, base_dir, stream).shape[1] if stream == "gnss" else None
+    return PRESETS[preset](stream, spec, n_cols)
+
+
+def load_import(path) -> dict:
+    """Read and check an import file: the tables (windowed) and the filter setup dict."""
+    path = pathlib.Path(path)
+    doc = yaml.safe_load(path.read_text())
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{path}: expected a mapping")
+    unknown = sorted(set(doc) - KNOWN)
+    if unknown:
+        raise ConfigError(f"{unknown[0]}: unknown field (known: {', '.join(sorted(KNOWN))})")
+    base = path.parent
+    filt = {}
+    start, end = doc.get("start_s"), doc.get("end_s")
+    if doc.get("kfgins_config"):
+        kf_path = base / doc["kfgins_config"]
+        kf = yaml.safe_load(kf_path.read_text())
+        k_start, k_end = kfgins.window_of(kf)
+        start = k_start if start is None else start
+        end = k_end if end is None else end
+        filt = kfgins.filter_block(kf)
+    imu = columns.window(columns.imu_table(_stream_spec(doc, "imu", base), base), start, end)
+    if len(imu.t_s) < 2:
+        raise ConfigError(f"imu: fewer than 2 IMU records in the window [{start}, {end}]")
+    gnss_spec = _stream_spec(doc, "gnss", base)
+    gnss = columns.window(columns.fix_table(gnss_spec, base, "gnss"), imu.t_s[0], end) if gnss_spec else None
+    if gnss is not None and gnss.pos_sigma_enu_m is None:
+        raise ConfigError("gnss.sigma: required (position 1-sigma per axis)")
+    truth_spec = _stream_spec(doc, "truth", base)
+    truth = columns.window(columns.fix_table(truth_spec, base, "truth"), imu.t_s[0], end) if truth_spec else None
+    if truth is not None and (truth.vel_enu_mps is None or truth.rph_rad is None):
+        raise ConfigError("truth: needs velocity and attitude columns")
+    filt = _merge(filt, doc.get("filter") or {})
+    init = dict(filt.get("initial_state") or {})
+    if not init:
+        if truth is None:
+            raise ConfigError("filter.initial_state: required when no truth file is given")
+        init = initial_from_truth(truth, imu.t_s[0])
+    init.setdefault("t_s", float(imu.t_s[0]))
+    filt["initial_state"] = init
+    setup = {"filter": filt, "report": {"skip_s": 0.0, **(doc.get("report") or {})}}
+    FilterSetup.from_dict(_plain(setup))                     # validate now, naming the field
+    return {"imu": imu, "gnss": gnss, "truth": truth, "setup": _plain(setup), "window": (start, end)}
+
+
+def initial_from_truth(truth, t_s: float) -> dict:
+    """The truth row at (or just before) t_s as initial_state fields."""
+    k = max(0, int(np.searchsorted(truth.t_s, t_s + 1e-6)) - 1)
+    return {"t_s": float(t_s), "lat_deg": float(np.rad2deg(truth.lat_rad[k])),
+            "lon_deg": float(np.rad2deg(truth.lon_rad[k])), "alt_m": float(truth.alt_m[k]),
+            "vel_enu_mps": [float(x) for x in truth.vel_enu_mps[k]],
+            "roll_pitch_heading_deg": [float(x) for x in np.rad2deg(truth.rph_rad[k])]}
+
+
+def _plain(x):
+    """numpy scalars/arrays -> plain Python (YAML-safe)."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
+
+
+def write(imported: dict, out) -> dict:
+    """The bag and its filter.yaml; returns the message counts per topic."""
+    out = pathlib.Path(out)
+    setup = FilterSetup.from_dict(imported["setup"])
+    imu, gnss, truth = imported["imu"], imported["gnss"], imported["truth"]
+    dt = float(np.median(np.diff(imu.t_s)))
+    cfg = setup.config
+    gyro_var = units.deg_per_sqrt_hr(cfg.gyro_arw_deg_per_sqrt_hr) ** 2 / dt
+    accel_var = units.ug_per_sqrt_hz(cfg.accel_vrw_ug_per_sqrt_hz) ** 2 / dt
+    streams = {"/imu/data_raw": ("sensor_msgs/msg/Imu", messages.imu_messages(imu, gyro_var, accel_var))}
+    if gnss is not None:
+        streams["/gnss/fix"] = ("sensor_msgs/msg/NavSatFix", messages.fix_messages(gnss))
+        if gnss.vel_enu_mps is not None and gnss.vel_sigma_enu_mps is not None:
+            streams["/gnss/vel"] = ("geometry_msgs/msg/TwistWithCovarianceStamped", messages.vel_messages(gnss))
+    if truth is not None:
+        streams["/truth/state"] = ("hyper_nav_msgs/msg/NavState", messages.truth_messages(truth))
+    counts = messages.write_bag(out, streams)
+    (out / "filter.yaml").write_text(yaml.safe_dump(imported["setup"], sort_keys=False))
+    return counts
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="import_data", description=__doc__.split("\n\n")[0])
+    ap.add_argument("import_file", help="import description (YAML), see the module docstring")
+    ap.add_argument("--out", required=True, help="bag directory to create (must not exist)")
+    args = ap.parse_args(argv)
+    try:
+        imported = load_import(args.import_file)
+        counts = write(imported, args.out)
+    except (ConfigError, FileExistsError, ValueError, OSError) as exc:
+        print(f"import_data: error: {exc}", file=sys.stderr)
+        return 2
+    imu = imported["imu"]
+    span = imu.t_s[-1] - imu.t_s[0]
+    print(f"[import_data] {args.out}: {span:.1f} s of data from t = {imu.t_s[0]:.3f} s; "
+          + ", ".join(f"{t} {n}" for t, n in counts.items()))
+    print(f"[import_data] filter setup: {pathlib.Path(args.out) / 'filter.yaml'}; "
+          f"replay: ros2run hyper_nav_sim replay_filter {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

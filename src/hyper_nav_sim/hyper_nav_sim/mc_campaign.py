@@ -1,0 +1,210 @@
+"""mc_campaign: a Monte Carlo campaign of a scenario on dask.distributed.
+
+    ros2run hyper_nav_sim mc_campaign --scenario default --runs 50 --out mc/default
+    ros2run hyper_nav_sim mc_campaign --scenario default --runs 50 --workers 2        # LocalCluster size
+    ros2run hyper_nav_sim mc_campaign --scenario default --runs 500 --scheduler tcp://10.0.0.5:8786
+
+Each run draws sensor noise, true biases and initial errors from the
+scenario's own distributions (``core/montecarlo.py``; ``--draw`` chooses
+which) and flies the fusion core over the scenario (IMU + loosely coupled
+GNSS, as ``offline_fly``). By default a ``LocalCluster`` on this machine
+(one single-threaded worker process per core, bound to 127.0.0.1, no
+dashboard); ``--scheduler`` uses an existing cluster, nothing else changes.
+The numbers depend on the scenario and the run indices only, not on the
+number or kind of workers.
+
+Writes ``campaign.json`` (per-run metrics; per epoch ANEES and ANIS with
+their 95 % chi-square bands, RMS, 50th and 95th percentiles of the 3D
+errors, the filter's RMS sigma), ``mc_errors.png`` and
+``mc_consistency.png``; prints progress (runs done, runs per minute, ETA)
+and a closing summary.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import sys
+import time
+
+import numpy as np
+import yaml
+
+from .core import montecarlo
+from .progress import Progress
+
+
+def campaign(data: dict, runs: int, draws=montecarlo.DRAWS, grid_hz: float = 1.0, workers: int | None = None,
+             scheduler: str | None = None, first_run: int = 0, progress: Progress | None = None,
+             keep_runs: bool = False, max_workers: int | None = None) -> dict:
+    """Run ``runs`` Monte Carlo runs on dask and aggregate them (see the module
+    docstring). ``max_workers`` restricts the tasks to that many of the
+    cluster's workers (an existing cluster shared with other work)."""
+    from dask.distributed import Client, LocalCluster, as_completed
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+    else:
+        n = workers or os.cpu_count() or 1
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address=None, silence_logs=40)
+        client = Client(cluster)
+    t0 = time.monotonic()
+    try:
+        allowed = sorted(client.scheduler_info()["workers"])[:max_workers] if max_workers else None
+        client.run(_warm_up, workers=allowed)          # every worker imports the core at once, in parallel
+        n_workers = len(allowed) if allowed else len(client.scheduler_info()["workers"])
+        futures = [client.submit(montecarlo.run_one, data, k, tuple(draws), grid_hz, pure=False, workers=allowed)
+                   for k in range(first_run, first_run + runs)]
+        results = []
+        for fut in as_completed(futures):
+            results.append(fut.result())
+            if progress is not None:
+                progress.update(len(results))
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    wall = time.monotonic() - t0
+    skip = float((data.get("report") or {}).get("skip_s", 0.0))
+    results.sort(key=lambda r: r["k"])
+    cpu = float(sum(r["cpu_s"] for r in results))
+    out = {"scenario": data["name"], "runs": runs, "draws": list(draws), "workers": n_workers,
+           "wall_s": wall, "runs_per_min": 60.0 * runs / wall, "cpu_s_per_run": cpu / runs,
+           "cores_used": cpu / wall,      # < workers when the machine is shared with other work
+           "per_run": [montecarlo.run_metrics(r, skip) for r in results], "stats": montecarlo.aggregate(results, skip)}
+    if keep_runs:
+        out["results"] = results
+    return out
+
+
+def _warm_up() -> bool:
+    """Import what a run needs (a worker's first task would otherwise pay for it alone)."""
+    from hyper_nav_sim import offline_fly  # noqa: F401
+    from hyper_nav_sim.core import boost_glide, simulate  # noqa: F401
+    return True
+
+
+def plot(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    s = result["stats"]
+    t = np.asarray(s["t_s"])
+    units = {"pos": "m", "vel": "m/s", "att": "deg"}
+    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
+    for ax, b in zip(axes, ("pos", "vel", "att")):
+        ax.fill_between(t, np.asarray(s["p50_3d"][b]), np.asarray(s["p95_3d"][b]), color="tab:blue", alpha=0.2,
+                        label="50th-95th percentile")
+        ax.plot(t, s["rms_3d"][b], color="k", lw=1.0, label="RMS over runs")
+        ax.plot(t, s["sigma_3d"][b], color="tab:red", lw=1.0, ls="--", label="filter's RMS sigma (3D)")
+        ax.set_yscale("log")
+        ax.set_ylabel(f"{b} error 3D [{units[b]}]")
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("sim time [s]")
+    fig.suptitle(f"{result['scenario']}: {s['n_runs']} Monte Carlo runs, errors over time")
+    fig.tight_layout()
+    p1 = out_dir / "mc_errors.png"
+    fig.savefig(p1, dpi=80)
+    plt.close(fig)
+    kinds = list(s["anis"])
+    fig, axes = plt.subplots(3 + len(kinds), 1, figsize=(10, 3 + 2.2 * (3 + len(kinds))), sharex=True)
+    lo, hi = s["anees_band"]
+    for ax, b in zip(axes, ("pos", "vel", "att")):
+        v = np.asarray(s["anees"][b])
+        ax.plot(t, v, color="k", lw=1.0, label=f"ANEES {b} (3 dof)")
+        ax.axhspan(lo, hi, color="tab:green", alpha=0.25, label=f"95 % band, {s['n_runs']} runs")
+        ax.set_ylabel(f"ANEES {b}")
+        ax.set_title(f"{b}: {100 * s['summary'][b]['share_in_band']:.0f} % of epochs in band, mean "
+                     f"{s['summary'][b]['mean_anees']:.2f}", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    ta = np.asarray(s["anis_t_s"])
+    for ax, kind in zip(axes[3:], kinds):
+        ax.plot(ta, s["anis"][kind], color="k", lw=1.0, label=f"ANIS {kind} ({s['anis_band'][kind]['dof']} dof)")
+        ax.fill_between(ta, s["anis_band"][kind]["lo"], s["anis_band"][kind]["hi"], color="tab:green", alpha=0.25,
+                        label="95 % band")
+        ax.set_ylabel(f"ANIS {kind}")
+        ax.legend(loc="upper right", fontsize=8)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("sim time [s]")
+    fig.suptitle(f"{result['scenario']}: consistency over {s['n_runs']} runs")
+    fig.tight_layout()
+    p2 = out_dir / "mc_consistency.png"
+    fig.savefig(p2, dpi=80)
+    plt.close(fig)
+    return [p1, p2]
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+def main(argv=None) -> int:
+    from .graph import apply_overrides
+    from .core.scenario import ScenarioError, load_scenario
+    ap = argparse.ArgumentParser(prog="mc_campaign", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenario", default="default", help="scenario name or YAML path")
+    ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="override a scenario field")
+    ap.add_argument("--draw", default=",".join(montecarlo.DRAWS),
+                    help=f"what each run draws (comma-separated subset of {','.join(montecarlo.DRAWS)})")
+    ap.add_argument("--workers", type=int, default=None, help="LocalCluster worker processes (default: one per core)")
+    ap.add_argument("--scheduler", help="address of an existing dask scheduler (tcp://host:port)")
+    ap.add_argument("--max-workers", type=int, default=None, help="use at most this many of the cluster's workers")
+    ap.add_argument("--grid-hz", type=float, default=1.0, help="epochs per second kept for the statistics")
+    ap.add_argument("--out", default=None, help="output directory (default mc/<scenario>)")
+    args = ap.parse_args(argv)
+    draws = tuple(d for d in args.draw.split(",") if d)
+    bad = [d for d in draws if d not in montecarlo.DRAWS]
+    if bad or args.runs < 1:
+        print(f"mc_campaign: error: --draw: unknown {bad} (known: {list(montecarlo.DRAWS)})" if bad else
+              "mc_campaign: error: --runs must be >= 1", file=sys.stderr)
+        return 2
+    try:
+        import tempfile
+        sc = load_scenario(args.scenario)
+        overrides = {k: yaml.safe_load(v) for k, _, v in (s.partition("=") for s in args.set)}
+        if overrides:
+            sc = apply_overrides(sc, overrides, pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_mc_")))
+    except ScenarioError as exc:
+        print(f"mc_campaign: error: {exc}", file=sys.stderr)
+        return 2
+    out_dir = pathlib.Path(args.out or f"mc/{sc.name}")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    where = args.scheduler or f"LocalCluster, {args.workers or os.cpu_count()} worker(s)"
+    print(f"[mc_campaign] {sc.name}: {args.runs} runs of {sc['duration_s']} s, drawing {', '.join(draws)}; {where}",
+          flush=True)
+    progress = Progress("mc_campaign", total=args.runs, unit="runs", sim=False, interval_s=5.0)
+    result = campaign(sc.data, args.runs, draws, args.grid_hz, args.workers, args.scheduler, progress=progress,
+                      max_workers=args.max_workers)
+    progress.done(f"{result['runs_per_min']:.1f} runs/min on {result['workers']} worker(s), "
+                  f"{result['cpu_s_per_run']:.1f} CPU s per run, {result['cores_used']:.2f} cores used")
+    (out_dir / "campaign.json").write_text(json.dumps(_jsonable(result), indent=1))
+    pngs = plot(result, out_dir)
+    s = result["stats"]
+    print(f"{'':6s} {'RMS 3D':>10s} {'mean ANEES':>11s} {'in 95% band':>12s}   (band [{s['anees_band'][0]:.2f}, "
+          f"{s['anees_band'][1]:.2f}] for {s['n_runs']} runs, 3 dof)")
+    for b, unit in (("pos", "m"), ("vel", "m/s"), ("att", "deg")):
+        m = s["summary"][b]
+        print(f"{b:6s} {m['rms_3d']:10.4g} {m['mean_anees']:11.2f} {100 * m['share_in_band']:11.0f}%   [{unit}]")
+    for kind, v in s["anis"].items():
+        print(f"ANIS {kind}: mean {np.nanmean(v):.2f} (dof {s['anis_band'][kind]['dof']})")
+    print(f"[mc_campaign] wrote {out_dir / 'campaign.json'}, " + ", ".join(p.name for p in pngs))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,61 @@
+"""Monte Carlo campaigns on dask.distributed: the same seeds give the same
+numbers on one worker and on two (LocalCluster processes), the draws come
+from the scenario's own distributions, and the chi-square bands are right."""
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from hyper_nav_sim.core import montecarlo
+from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.mc_campaign import _jsonable, campaign, plot
+
+
+@pytest.fixture(scope="module")
+def short(tmp_path_factory):
+    return apply_overrides(load_scenario("default"), {"duration_s": 4.0, "report.skip_s": 1.0},
+                           tmp_path_factory.mktemp("mc"))
+
+
+def test_same_numbers_on_one_and_two_workers(short, tmp_path):
+    """One LocalCluster of two worker processes, reached as an existing
+    cluster (--scheduler): the campaign on one of its workers, then on both."""
+    from dask.distributed import LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, silence_logs=40) as cluster:
+        one = campaign(short.data, runs=4, scheduler=cluster.scheduler_address, max_workers=1)
+        two = campaign(short.data, runs=4, scheduler=cluster.scheduler_address)
+    assert one["workers"] == 1 and two["workers"] == 2
+    a, b = (json.dumps(_jsonable({"per_run": r["per_run"], "stats": r["stats"]}), sort_keys=True) for r in (one, two))
+    assert a == b
+    s = one["stats"]
+    assert s["n_runs"] == 4 and len(s["t_s"]) == 4 and set(s["anis"]) == {"gnss_pos", "gnss_vel"}
+    assert len({r["seed"] for r in one["per_run"]}) == 4
+    for r in one["per_run"]:      # 4 s of the default flight: metre-level position, sub-0.5 m/s velocity
+        assert 0.0 < r["pos_rms_3d"] < 15.0 and 0.0 < r["vel_rms_3d"] < 0.5
+    pngs = plot(one, tmp_path)
+    assert all(p.stat().st_size > 10_000 for p in pngs)
+
+
+def test_draws_follow_the_filter_prior_and_depend_on_the_run_only():
+    sc = load_scenario("default")
+    cfg = sc.filter_config()
+    draws = [montecarlo.draw_overrides(sc.data, cfg, k) for k in range(400)]
+    assert draws[7] == montecarlo.draw_overrides(sc.data, cfg, 7)
+    g = np.array([d["imu.gyro_bias_deg_per_hr"] for d in draws])
+    p = np.array([d["filter.initial_error.pos_enu_m"] for d in draws])
+    # sample sigma within 10 % of the prior (400 draws: 1-sigma of the estimate ~3.5 %)
+    assert g.std(axis=0) == pytest.approx(np.asarray(cfg.gyro_bias_sigma_deg_per_hr), rel=0.1)
+    assert p.std(axis=0) == pytest.approx(np.asarray(cfg.init_pos_sigma_m), rel=0.1)
+    only_noise = montecarlo.draw_overrides(sc.data, cfg, 3, draws=("noise",))
+    assert set(only_noise) == {"seed"} and only_noise["seed"] == draws[3]["seed"]
+
+
+def test_anees_band_covers_95_percent_of_simulated_averages():
+    rng = np.random.default_rng(5)
+    n, dof = 20, 3
+    lo, hi = montecarlo.band(n, dof)
+    means = chi2.rvs(dof, size=(4000, n), random_state=rng).mean(axis=1)
+    assert np.mean((means > lo) & (means < hi)) == pytest.approx(0.95, abs=0.015)
