@@ -125,6 +125,7 @@ def known_fields() -> dict[str, frozenset]:
     from .lever_arm import _DEFAULTS as LEVER_ARM_FIELDS
     from .mag_model import CONFIG_FIELDS as MAG_FIELDS
     from .radar import EarlyWarningRadar
+    from hyper_nav_filter.core.initial_state import INIT_PARAMS
     tree: dict[str, set] = {}
     for dotted in SCHEMA:
         parts = dotted.split(".")
@@ -137,7 +138,8 @@ def known_fields() -> dict[str, frozenset]:
     tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
     tree["gnss.raw.lock"] = set(receiver._LOCK_FIELDS)
     tree["magnetometer"] |= set(MAG_FIELDS)
-    tree["filter"] |= {"config", "sources"}
+    tree["filter"] |= {"config", "sources", "initial_state"}
+    tree["filter.initial_state"] = {p.name for p in INIT_PARAMS}              # hyper_nav_filter.core.initial_state
     tree["filter.config"] = {f.name for f in fields(FilterConfig) if f.init}   # the filter's declarations
     tree["lever_arm"] = set(LEVER_ARM_FIELDS)
     tree["barometer"] = set(BARO_FIELDS) | {"rate_hz"}
