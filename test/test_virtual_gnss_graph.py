@@ -38,7 +38,7 @@ def test_virtual_gnss_node_over_dds_matches_its_offline_core(tmp_path):
     for topic, d in delivery.items():
         assert d["published"] == d["recorded"], (topic, d)
     # the fusion node takes them through its own declared source (filter.sources.gnss_virtual)
-    fusion = next(v for k, v in run["diagnostics"].items() if "fusion" in k)
+    fusion = run["diagnostics"]["hyper_nav_filter: fusion"]
     print("\nfusion diagnostics: " + ", ".join(f"{k}={v}" for k, v in fusion.items() if "virtual" in k or "raw" in k))
     diag = run["diagnostics"]["hyper_nav_aiding: virtual_gnss"]
     assert not any(k.startswith("rejected_") and int(v) for k, v in diag.items()), diag
