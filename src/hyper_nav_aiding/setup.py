@@ -16,5 +16,9 @@ setup(
     maintainer_email="maintainers@hyper-nav.org",
     description="Navigation aiding: geomagnetic matching, virtual pseudoranges, lever-arm learning.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": [
+        "geomag_node = hyper_nav_aiding.nodes.geomag_node:main",
+        "reproduce_seed003 = hyper_nav_aiding.reproduce_seed003:main",
+        "build_geomag_map = hyper_nav_aiding.build_geomag_map:main",
+    ]},
 )
