@@ -1,0 +1,102 @@
+"""Message <-> core conversions of the geomagnetic node, duck-typed (rclpy
+messages live, rosbags messages offline); no rclpy import.
+
+* sensor_msgs/MagneticField (tesla, body FLU) -> MagSample: |B| in nT (the
+  norm does not depend on the attitude; hard/soft iron are taken as
+  calibrated out).
+* hyper_nav_msgs/NavState -> NavPoint: position, ENU velocity and the
+  position block of the covariance (found by name in ``state_blocks``).
+* MatchResult -> sensor_msgs/NavSatFix fields: the fix, ENU
+  ``position_covariance`` whose EN block is the fix covariance and whose
+  vertical variance is ``NO_VERTICAL_VAR_M2`` (the fix says nothing about
+  height; the altitude field repeats the solution's); and
+  hyper_nav_msgs/MatchQuality fields.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
+
+from .core.matching import MagSample, MatchResult, NavPoint
+
+NO_VERTICAL_VAR_M2 = 1.0e12
+STATUS_FIX, STATUS_NO_FIX, SERVICE_UNKNOWN, COVARIANCE_TYPE_KNOWN = 0, -1, 0, 3
+
+
+def mag_sample(msg) -> MagSample:
+    f = msg.magnetic_field
+    return MagSample(stamp_to_s(msg.header.stamp), float(np.sqrt(f.x**2 + f.y**2 + f.z**2)) * 1e9)
+
+
+def position_block(state_blocks) -> slice | None:
+    """Slice of the 'pos' block in a NavState covariance, from its
+    ``state_blocks`` (["att:3", "vel:3", "pos:3", ...])."""
+    start = 0
+    for b in state_blocks:
+        name, _, size = str(b).partition(":")
+        try:
+            n = int(size)
+        except ValueError:
+            return None
+        if name == "pos":
+            return slice(start, start + n)
+        start += n
+    return None
+
+
+def nav_point(msg) -> NavPoint:
+    """NavState -> NavPoint; NaN covariance when the message has none."""
+    cov = np.full((2, 2), np.nan)
+    alt_var = float("nan")
+    sl = position_block(msg.state_blocks)
+    n = int(msg.state_dim)
+    c = np.asarray(msg.covariance, float)
+    if sl is not None and n > 0 and c.size == n * n and sl.stop <= n:
+        P = c.reshape(n, n)[sl, sl]
+        cov, alt_var = P[:2, :2].copy(), float(P[2, 2])
+    return NavPoint(stamp_to_s(msg.header.stamp), float(msg.lat_rad), float(msg.lon_rad), float(msg.alt_m),
+                    np.asarray(msg.vel_enu_mps, float).copy(), cov, alt_var)
+
+
+def interpolate_nav(a: NavPoint, b: NavPoint, t_s: float) -> NavPoint:
+    """Linear interpolation of two solutions bracketing t_s (covariance of
+    the nearer one)."""
+    if b.t_s == a.t_s:
+        return a
+    w = (t_s - a.t_s) / (b.t_s - a.t_s)
+    near = a if w < 0.5 else b
+    return NavPoint(t_s, a.lat_rad + w * (b.lat_rad - a.lat_rad), a.lon_rad + w * (b.lon_rad - a.lon_rad),
+                    a.alt_m + w * (b.alt_m - a.alt_m), a.vel_enu_mps + w * (b.vel_enu_mps - a.vel_enu_mps),
+                    near.cov_en_m2, near.alt_var_m2)
+
+
+def _header(t_s: float, frame: str) -> dict:
+    sec, nsec = s_to_stamp_fields(t_s)
+    return {"header.stamp.sec": sec, "header.stamp.nanosec": nsec, "header.frame_id": frame}
+
+
+def navsatfix_fields(res: MatchResult, alt_m: float, frame_id: str) -> dict:
+    cov = np.zeros((3, 3))
+    cov[:2, :2] = res.cov_en_m2
+    cov[2, 2] = NO_VERTICAL_VAR_M2
+    d = _header(res.t_s, frame_id)
+    d.update({"status.status": STATUS_FIX, "status.service": SERVICE_UNKNOWN,
+              "latitude": float(np.rad2deg(res.lat_rad)), "longitude": float(np.rad2deg(res.lon_rad)),
+              "altitude": float(alt_m), "position_covariance": cov.ravel().tolist(),
+              "position_covariance_type": COVARIANCE_TYPE_KNOWN})
+    return d
+
+
+def match_quality_fields(res: MatchResult, frame_id: str) -> dict:
+    d = _header(res.t_s, frame_id)
+
+    def num(x):
+        return float(x) if np.isfinite(x) else float("nan")
+    d.update({"algorithm": res.algorithm, "valid": bool(res.valid), "reason": res.reason[:200],
+              "metric": num(res.metric), "iterations": int(res.iterations),
+              "sequence_length": int(res.sequence_length),
+              "along_gradient_sigma_m": num(res.along_gradient_sigma_m),
+              "across_gradient_sigma_m": num(res.across_gradient_sigma_m),
+              "gradient_nt_per_km": num(res.gradient_nt_per_km), "compute_time_s": float(res.compute_time_s)})
+    return d
