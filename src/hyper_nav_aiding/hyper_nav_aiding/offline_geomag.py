@@ -11,11 +11,15 @@ as the graph runs it:
   carries) and the measured |B| go to ``GeomagAiding.process``; a fix is
   added to the engine as a ``HorizontalFix`` at its epoch t (Z_1).
 
-The engine runs with ``output_delay_s = 0`` and 1 Hz output, so the solution
-at t is released as soon as the IMU sample at t is in, and the fix at t is
-applied to epoch t on the next IMU sample (one epoch re-processed). The live
-node gets the same solution 1 s later (the fusion node's output delay) and
-the fusion node applies the late fix at the same epoch: same numbers.
+The engine runs with ``output_delay_s = 0`` and releases every epoch, so the
+solution at t is out as soon as the IMU sample at t is in, and the fix at t
+is applied to epoch t on the next IMU sample (one epoch re-processed). The
+live node gets the same solution 1 s later (the fusion node's output delay)
+and the fusion node applies the late fix at the same epoch: same numbers.
+Kept per whole second t: ``solutions[t]`` (before the fix of t: what the
+matcher sees) and ``posterior[t]``, the first solution after t (after the
+fix of t, one IMU interval later), on which errors are evaluated, as the
+PCRB is a posterior bound.
 
 ``decimate`` sums consecutive IMU increments (the exact integral over the
 longer interval); see ``reproduce_seed003`` for the accuracy cost.
@@ -29,7 +33,7 @@ import numpy as np
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.measurements import BaroHeight, HorizontalFix
+from hyper_nav_filter.core.measurements import BaroHeight, GnssPosition, HorizontalFix
 
 from .core.geomag_aiding import GeomagAiding
 from .core.matching import MagSample, NavPoint
@@ -88,13 +92,16 @@ class AidedFlight:
     inertial 0-420 s between algorithms)."""
 
     def __init__(self, cfg, initial_state, imu_t_s, dtheta, dvel, baro: list):
-        self.cfg = replace(cfg, output_delay_s=0.0, output_rate_hz=1.0)
+        rate = 1.0 / float(np.min(np.diff(imu_t_s[:3]))) if len(imu_t_s) > 2 else cfg.output_rate_hz
+        self.cfg = replace(cfg, output_delay_s=0.0, output_rate_hz=rate)
         self.eng = FusionEngine(self.cfg, initial_state)
         self.imu = (imu_t_s, dtheta, dvel)
         self.baro = baro
         self.k = 0
         self.j = 0
         self.solutions: dict[float, object] = {}
+        self.posterior: dict[float, object] = {}
+        self._pending: float | None = None
 
     def fork(self) -> "AidedFlight":
         return copy.deepcopy(self)
@@ -112,28 +119,44 @@ class AidedFlight:
             self.eng.add_imu(tk, dth[self.k], dv[self.k])
             self.k += 1
             for sol in self.eng.release():
-                self.solutions[round(sol.t_s, 6)] = sol
+                if self._pending is not None:
+                    self.posterior[self._pending] = sol
+                    self._pending = None
+                if abs(sol.t_s - round(sol.t_s)) < 1e-6:
+                    self.solutions[float(round(sol.t_s))] = sol
+                    self._pending = float(round(sol.t_s))
             if aiding is None or mag_t_s is None:
                 continue
             while mi < len(mag_t_s) and mag_t_s[mi] <= tk + 1e-9:
                 tm = float(mag_t_s[mi])
-                sol = self.solutions.get(round(tm, 6))
+                sol = self.solutions.get(float(round(tm)))
                 if sol is not None:
                     res = aiding.process(MagSample(tm, float(mag_nT[mi])), nav_point(sol, lay))
                     if res is not None and res.valid:
-                        self.eng.add_measurement(HorizontalFix(tm, res.lat_rad, res.lon_rad, res.cov_en_m2))
+                        self.eng.add_measurement(fix_measurement(res))
                     if on_result is not None:
                         on_result(res)
                 mi += 1
 
 
+def fix_measurement(res):
+    """The fusion measurement of a fix: horizontal (seed 003 eqs. 20-26,
+    ``HorizontalFix``) or, for a 3-D fix, a position fix with its full ENU
+    covariance (``GnssPosition``; the scenario's antenna lever arm is zero)."""
+    if res.cov_enu_m2 is not None:
+        return GnssPosition(res.t_s, res.lat_rad, res.lon_rad, res.alt_m, res.cov_enu_m2)
+    return HorizontalFix(res.t_s, res.lat_rad, res.lon_rad, res.cov_en_m2)
+
+
 def position_errors(solutions: dict, traj, t_s) -> np.ndarray:
-    """(N, 3) ENU position errors (estimate - truth) of the 1 Hz solutions at t_s."""
+    """(N, 3) ENU position errors (estimate - truth at the solution's own
+    epoch) of the solutions keyed by whole seconds t_s (NaN where none)."""
     t_s = np.asarray(t_s, float)
-    tr = traj.truth(t_s)
+    sols = [solutions.get(float(round(t))) for t in t_s]
+    t_sol = np.array([s.t_s if s is not None else t for s, t in zip(sols, t_s)])
+    tr = traj.truth(t_sol)
     out = np.full((len(t_s), 3), np.nan)
-    for i, t in enumerate(t_s):
-        s = solutions.get(round(float(t), 6))
+    for i, s in enumerate(sols):
         if s is not None:
             out[i] = earth.position_error_enu_m(s.state.lat_rad, s.state.lon_rad, s.state.alt_m,
                                                 tr.lat_rad[i], tr.lon_rad[i], tr.alt_m[i])

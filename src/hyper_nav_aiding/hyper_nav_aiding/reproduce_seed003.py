@@ -82,6 +82,11 @@ class ReproConfig:
             raise ValueError(f"geomag.reproduction.level_reading: 'correlated' or 'white_uniform', got {rc.level_reading!r}")
         if rc.attitude_reading not in ("enu", "body"):
             raise ValueError(f"geomag.reproduction.attitude_reading: 'enu' or 'body', got {rc.attitude_reading!r}")
+        for a in rc.algorithms:
+            alg, *opts = a.split("-")
+            if alg not in rc.state_blocks or any(o not in VARIANTS for o in opts):
+                raise ValueError(f"geomag.reproduction.algorithms: '{a}' is not one of {sorted(rc.state_blocks)} "
+                                 f"with optional variants {sorted(VARIANTS)}")
         return rc
 
     def attitude_sigma_enu_arcsec(self) -> np.ndarray:
@@ -166,14 +171,35 @@ def bound_config(sc, rc: ReproConfig) -> FilterConfig:
         init_vel_sigma_mps=tuple(fc["init_vel_sigma_mps"]), init_pos_sigma_m=tuple(fc["init_pos_sigma_m"]))
 
 
-def cell_geomag_config(gcfg: GeomagConfig, rc: ReproConfig, sc, level: float, alg: str) -> GeomagConfig:
-    """The node's configuration for one cell: the algorithm, and the map
-    error it assumes = the simulated one (the paper's algorithms know the
-    level they run at)."""
+VARIANTS = {"geometry": "fix covariance along/across the gradient instead of isotropic",
+            "2d": "EKF horizontal pseudo-fix (altitude error as noise)",
+            "15": "the paper's 15-state fusion filter"}
+
+
+def base_algorithm(name: str) -> str:
+    """'ICCP-geometry' -> 'ICCP' (variants: ``VARIANTS``)."""
+    return name.split("-")[0]
+
+
+def cell_geomag_config(gcfg: GeomagConfig, rc: ReproConfig, sc, level: float, name: str) -> GeomagConfig:
+    """The node's configuration for one cell: the algorithm (and variant),
+    and the map error it assumes = the simulated one (the paper's algorithms
+    know the level they run at)."""
+    alg, *opts = name.split("-")
+    for o in opts:
+        if o not in VARIANTS:
+            raise ValueError(f"algorithm variant '{o}' of '{name}' unknown (known: {sorted(VARIANTS)})")
     corr = float(sc["magnetometer.map_error_corr_length_m"]) if rc.level_reading == "correlated" else 0.0
     return replace(gcfg, algorithm=alg, field_sigma_nT=rc.map_error_rms(level),
                    sensor_sigma_nT=float(sc["magnetometer.noise_nT"]),
-                   ekf=replace(gcfg.ekf, map_error_corr_length_m=corr))
+                   fix_covariance="geometry" if "geometry" in opts else gcfg.fix_covariance,
+                   ekf=replace(gcfg.ekf, map_error_corr_length_m=corr, vertical=gcfg.ekf.vertical and "2d" not in opts))
+
+
+def state_blocks_of(rc: ReproConfig, sc, name: str) -> tuple:
+    if "15" in name.split("-")[1:]:
+        return tuple(sc.data["filter"]["config"]["state_blocks"])
+    return tuple(rc.state_blocks[base_algorithm(name)])
 
 
 # ---- one seed ----------------------------------------------------------------------
@@ -203,15 +229,15 @@ def run_seed(job: SeedJob) -> dict:
     baro = baro_measurements(sc, traj)
     init = sc.filter_initial_state()
     starts = {}
-    for blocks in {tuple(rc.state_blocks[a]) for a in rc.algorithms} | {tuple(sc.data["filter"]["config"]["state_blocks"])}:
+    for blocks in {state_blocks_of(rc, sc, a) for a in rc.algorithms} | {tuple(sc.data["filter"]["config"]["state_blocks"])}:
         fl = AidedFlight(filter_config(sc, rc, blocks), init, imu_t, dth, dv, baro)
-        fl.run_until(gcfg.start_s)
+        fl.run_until(gcfg.start_s - 1e-6)          # the epoch start_s and its sample belong to the aided part
         starts[blocks] = fl
     out = {"seed": job.seed, "truth": {k: v for k, v in truth_overrides(base, rc, job.seed).items()}, "cells": {}}
     ins_blocks = tuple(sc.data["filter"]["config"]["state_blocks"])
     fl = starts[ins_blocks].fork()
     fl.run_until(end)
-    out["ins"] = _metrics(position_errors(fl.solutions, traj, t_all), t_all, grad, gcfg.start_s)
+    out["ins"] = _metrics(position_errors(fl.posterior, traj, t_all), t_all, grad, gcfg.start_s)
     for level in rc.levels_nT:
         sc_l = derived_scenario(sc, {"magnetometer.map_error_rms_nT": rc.map_error_rms(level),
                                      "magnetometer.map_error_model": rc.level_reading})
@@ -219,11 +245,13 @@ def run_seed(job: SeedJob) -> dict:
         for alg in rc.algorithms:
             cfg = cell_geomag_config(gcfg, rc, sc_l, level, alg)
             aiding = GeomagAiding(cfg, gmap)
-            fl = starts[tuple(rc.state_blocks[alg])].fork()
+            fl = starts[state_blocks_of(rc, sc, alg)].fork()
             fl.run_until(end, aiding, mag_t, mag_nT)
-            m = _metrics(position_errors(fl.solutions, traj, t_all), t_all, grad, gcfg.start_s)
-            acc, rej, _ = fl.eng.kf.stats.get("horizontal_fix", (0, 0, 0.0))
-            m.update({"compute_time_s": aiding.compute_time_s, "fixes_accepted": int(acc), "fixes_gated": int(rej),
+            m = _metrics(position_errors(fl.posterior, traj, t_all), t_all, grad, gcfg.start_s)
+            acc, rej = (sum(fl.eng.kf.stats.get(k, (0, 0, 0.0))[i] for k in ("horizontal_fix", "gnss_pos"))
+                        for i in (0, 1))
+            m.update({"compute_time_s": aiding.compute_cpu_s, "compute_wall_s": aiding.compute_time_s,
+                      "fixes_accepted": int(acc), "fixes_gated": int(rej),
                       "counters": dict(aiding.counters)})
             out["cells"][f"{level:g}/{alg}"] = m
     return out
@@ -243,11 +271,12 @@ def _metrics(err: np.ndarray, t: np.ndarray, grad_en: np.ndarray, start_s: float
     u = grad_en / np.linalg.norm(grad_en, axis=1, keepdims=True)
     along = np.sum(err[:, :2] * u, axis=1)
     across = u[:, 0] * err[:, 1] - u[:, 1] * err[:, 0]
-    w = t >= start_s - 1e-9
+    w = (t >= start_s - 1e-9) & np.all(np.isfinite(err), axis=1)
+    last = np.flatnonzero(np.all(np.isfinite(err), axis=1))[-1]
     return {"lat_mean_abs_m": float(np.nanmean(np.abs(err[w, 1]))), "lon_mean_abs_m": float(np.nanmean(np.abs(err[w, 0]))),
             "along_rms_m": float(np.sqrt(np.nanmean(along[w] ** 2))), "across_rms_m": float(np.sqrt(np.nanmean(across[w] ** 2))),
             "along_mean_abs_m": float(np.nanmean(np.abs(along[w]))), "across_mean_abs_m": float(np.nanmean(np.abs(across[w]))),
-            "final_lat_abs_m": float(abs(err[-1, 1])), "final_lon_abs_m": float(abs(err[-1, 0])),
+            "final_lat_abs_m": float(abs(err[last, 1])), "final_lon_abs_m": float(abs(err[last, 0])),
             "series_en_m": err[:, :2].astype(np.float32)}
 
 
@@ -274,7 +303,7 @@ def summarize(results: list, rc: ReproConfig, bounds: dict, vector_bounds: dict)
             row["diverged_lon"] = float(np.mean([c["final_lon_abs_m"] > i["final_lon_abs_m"] for c, i in zip(cells, ins)]))
             row["along_ratio_to_bound"] = row["along_rms_m"]["rms"] / b["along_rms_m"]
             row["across_ratio_to_bound"] = row["across_rms_m"]["rms"] / b["across_rms_m"]
-            paper = PAPER_TABLE3.get(alg)
+            paper = PAPER_TABLE3.get(alg)           # the paper's own rows (not for variants)
             if paper is not None:
                 row["paper"] = {"duration_s": paper[0], "lat_m": paper[1][level][0] if level in paper[1] else None,
                                 "lon_m": paper[1][level][1] if level in paper[1] else None}
@@ -328,6 +357,9 @@ def plot(series: dict, bounds_t: dict, t: np.ndarray, out_dir: pathlib.Path, lev
     import matplotlib.pyplot as plt
     files = []
     colors = {"INS": "k", "MAGCOM": "tab:orange", "ICCP": "tab:green", "SIMAN": "tab:blue", "EKF": "tab:red"}
+    styles = {}
+    for a in algorithms:
+        styles[a] = (colors.get(base_algorithm(a), "tab:gray"), "-" if a == base_algorithm(a) else "--")
     for level in levels:
         fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
         hb = bounds_t[level]
@@ -338,7 +370,7 @@ def plot(series: dict, bounds_t: dict, t: np.ndarray, out_dir: pathlib.Path, lev
             ax.plot(t, ins[:, idx], color=colors["INS"], lw=1.0, label="pure INS")
             for alg in algorithms:
                 e = series[f"{level:g}/{alg}"][0]
-                ax.plot(t, e[:, idx], color=colors.get(alg), lw=1.0, label=alg)
+                ax.plot(t, e[:, idx], color=styles[alg][0], ls=styles[alg][1], lw=1.0, label=alg)
             ax.set_ylabel(name)
             ax.axvline(420.0 if t[-1] > 420 else t[len(t) // 2], color="0.5", ls=":")
             lim = np.nanpercentile(np.abs(np.concatenate([series[f"{level:g}/{a}"][0][:, idx] for a in algorithms])), 99)

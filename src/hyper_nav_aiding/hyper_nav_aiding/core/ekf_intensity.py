@@ -11,6 +11,15 @@ indicated position instead of a 2-state filter):
 sigma). A scalar update along u = g / |g| is exactly a horizontal fix at
 r^ - u z / |g| whose EN covariance is sigma_v^2 / |g|^2 along u and
 unbounded across it (``across_sigma_m``, 1e5 m by default: no information).
+
+With ``vertical`` (default) the same is done in 3-D with the full gradient
+(E, N, U): the fix is r^ - u3 z / |g3| with variance sigma^2 / |g3|^2 along
+u3 = g3 / |g3| and unbounded in the plane across it, i.e. exactly the scalar
+update z = g3 . dr + v of the fusion filter's position block, altitude
+included. This matters: the field falls ~30 nT per km of height, so a
+baro-aided altitude error of 1-3 m is 0.03-0.09 nT, as large as the 0.1 nT
+map-error level; as extra noise of a horizontal fix it cannot be estimated
+jointly with the barometer.
 The fusion filter then gains exactly the measurement's information: no
 second filter holds a copy of the prior, nothing is counted twice, and the
 filter's own INS error model (velocity, tilt, biases, scale factors, the
@@ -78,8 +87,21 @@ class EkfIntensity:
         else:
             z_eff = z
             var = self.sigma_nT**2 + var_alt
-        sig_along = float(np.sqrt(var)) / gn
         frame = LocalFrame(nav.lat_rad, nav.lon_rad, nav.alt_m)
+        if self.p.vertical:
+            var -= var_alt                                  # the altitude error is in the state now
+            g3n = float(np.linalg.norm(g))
+            u3 = np.asarray(g, float) / g3n
+            d = -u3 * z_eff / g3n
+            lat, lon = frame.to_geodetic(d[:2])
+            s3 = float(np.sqrt(var)) / g3n
+            cov3 = s3**2 * np.outer(u3, u3) + self.p.across_sigma_m**2 * (np.eye(3) - np.outer(u3, u3))
+            sig_h = float(np.sqrt(var)) / gn                # what it is worth horizontally, for the quality
+            return MatchResult(sample.t_s, self.name, True, "", float(lat), float(lon), cov3[:2, :2].copy(),
+                               alt_m=float(nav.alt_m + d[2]), cov_enu_m2=cov3, metric=z, iterations=1,
+                               sequence_length=1, along_gradient_sigma_m=sig_h,
+                               across_gradient_sigma_m=self.p.across_sigma_m, gradient_nt_per_km=gn * 1e3)
+        sig_along = float(np.sqrt(var)) / gn
         lat, lon = frame.to_geodetic(-u * z_eff / gn)
         cov = gradient_frame_cov(g_h, sig_along, self.p.across_sigma_m)
         return MatchResult(sample.t_s, self.name, True, "", float(lat), float(lon), cov,

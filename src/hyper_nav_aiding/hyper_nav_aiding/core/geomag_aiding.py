@@ -70,7 +70,8 @@ class GeomagAiding:
         self.map_problem = map_problem if gmap is None else ""
         self.matcher = make_matcher(cfg, gmap) if gmap is not None else None
         self.counters: Counter = Counter()
-        self.compute_time_s = 0.0
+        self.compute_time_s = 0.0          # wall
+        self.compute_cpu_s = 0.0           # CPU time of the calling thread (robust on a loaded machine)
         self.last: MatchResult | None = None
 
     @classmethod
@@ -83,10 +84,11 @@ class GeomagAiding:
             return cls(cfg, None, str(exc))
 
     def process(self, sample: MagSample, nav: NavPoint) -> MatchResult | None:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         res = self._process(sample, nav)
         dt = time.perf_counter() - t0
         self.compute_time_s += dt
+        self.compute_cpu_s += time.thread_time() - c0
         if res is not None:
             res.compute_time_s = dt
             self.counters["fixes" if res.valid else f"no_fix_{res.reason.replace(' ', '_')}"] += 1

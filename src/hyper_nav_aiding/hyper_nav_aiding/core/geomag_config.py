@@ -64,6 +64,9 @@ class EkfParams:
     map_error_corr_length_m: float = _f(0.0, "correlation length of the map error (m) for measurement "
                                         "differencing (time constant sqrt(pi/2) L / speed); 0 = white", 0.0, 1e7)
     across_sigma_m: float = _f(1.0e5, "1-sigma of the unobserved across-gradient direction (m)", 1.0, 1e8)
+    vertical: bool = _f(True, "3-D pseudo-fix along the 3-D gradient (the field falls ~30 nT/km with height, "
+                        "so the altitude error enters the measurement); needs a 3-D position source in the "
+                        "fusion filter. false: horizontal fix, altitude error as extra noise")
 
 
 @dataclass(frozen=True)

@@ -48,6 +48,9 @@ class MatchResult:
     lat_rad: float = float("nan")
     lon_rad: float = float("nan")
     cov_en_m2: np.ndarray = field(default_factory=lambda: np.full((2, 2), np.nan))
+    # a 3-D fix (EKF with ``vertical``): altitude and the full ENU covariance; None = horizontal
+    alt_m: float = float("nan")
+    cov_enu_m2: np.ndarray | None = None
     metric: float = float("nan")
     iterations: int = 0
     sequence_length: int = 0
