@@ -123,13 +123,19 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
         assert len(fixes) == n_mag - len(OFF_MAP_S) and len(off) == len(OFF_MAP_S)
         assert all(q.reason.startswith("off map") for q in off)
         for f in fixes:
+            # the EKF's 3-D pseudo-fix: the error along the 3-D gradient is gone (it was
+            # g . (0, 300 m, 0) / |g| = 36 m), the covariance says so and nothing else
             t = round(f.header.stamp.sec + f.header.stamp.nanosec * 1e-9)
             tl, tlo = truth[t]
             _, g = gmap.total_and_gradient(tl, tlo, 26000.0)
-            u = g[:2] / np.linalg.norm(g[:2])
-            err = LocalFrame(tl, tlo, 26000.0).to_en(np.deg2rad(f.latitude), np.deg2rad(f.longitude))
-            assert abs(err @ u) < 2.0                            # was 300 m * cos(19 deg) = 284 m along
-            assert f.position_covariance[8] >= 1e10 and f.position_covariance_type == 3
+            u3 = g / np.linalg.norm(g)
+            en = LocalFrame(tl, tlo, 26000.0).to_en(np.deg2rad(f.latitude), np.deg2rad(f.longitude))
+            err3 = np.array([en[0], en[1], f.altitude - 26000.0])
+            assert abs(err3 @ u3) < 0.5
+            C = np.asarray(f.position_covariance).reshape(3, 3)
+            w, V = np.linalg.eigh(C)
+            assert abs(V[:, 0] @ u3) > 0.999 and w[1] > 1e9 and f.position_covariance_type == 3
+            assert np.sqrt(w[0]) == pytest.approx(0.5 / np.linalg.norm(g), rel=0.02)   # field_sigma / |g|
         # counters on /diagnostics (the last status of each node)
         diag = {}
         for arr in msgs["/diagnostics"]:

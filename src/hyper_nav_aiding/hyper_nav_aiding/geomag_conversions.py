@@ -9,8 +9,10 @@ messages live, rosbags messages offline); no rclpy import.
 * MatchResult -> sensor_msgs/NavSatFix fields: the fix, ENU
   ``position_covariance`` whose EN block is the fix covariance and whose
   vertical variance is ``NO_VERTICAL_VAR_M2`` (the fix says nothing about
-  height; the altitude field repeats the solution's); and
-  hyper_nav_msgs/MatchQuality fields.
+  height; the altitude field repeats the solution's); a 3-D fix (the EKF's
+  pseudo-fix along the 3-D gradient) carries its altitude and full ENU
+  covariance instead (degenerate: information along one direction only);
+  and hyper_nav_msgs/MatchQuality fields.
 """
 from __future__ import annotations
 
@@ -77,9 +79,12 @@ def _header(t_s: float, frame: str) -> dict:
 
 
 def navsatfix_fields(res: MatchResult, alt_m: float, frame_id: str) -> dict:
-    cov = np.zeros((3, 3))
-    cov[:2, :2] = res.cov_en_m2
-    cov[2, 2] = NO_VERTICAL_VAR_M2
+    if res.cov_enu_m2 is not None:
+        cov, alt_m = np.asarray(res.cov_enu_m2, float), res.alt_m
+    else:
+        cov = np.zeros((3, 3))
+        cov[:2, :2] = res.cov_en_m2
+        cov[2, 2] = NO_VERTICAL_VAR_M2
     d = _header(res.t_s, frame_id)
     d.update({"status.status": STATUS_FIX, "status.service": SERVICE_UNKNOWN,
               "latitude": float(np.rad2deg(res.lat_rad)), "longitude": float(np.rad2deg(res.lon_rad)),
