@@ -4,8 +4,10 @@ messages live, rosbags messages offline); no rclpy import.
 * sensor_msgs/MagneticField (tesla, body FLU) -> MagSample: |B| in nT (the
   norm does not depend on the attitude; hard/soft iron are taken as
   calibrated out).
-* hyper_nav_msgs/NavState -> NavPoint: position, ENU velocity and the
-  position block of the covariance (found by name in ``state_blocks``).
+* hyper_nav_msgs/NavState -> NavPoint: position, ENU velocity, the
+  position block of the covariance (found by name in ``state_blocks``) and
+  the acceleration w.r.t. Earth in ENU, C_b_n f_b + g - (2 w_ie + w_en) x v
+  (from ``accel_b_mps2``, the compensated specific force, and ``q_b_enu``).
 * MatchResult -> sensor_msgs/NavSatFix fields: the fix, ENU
   ``position_covariance`` whose EN block is the fix covariance and whose
   vertical variance is ``NO_VERTICAL_VAR_M2`` (the fix says nothing about
@@ -19,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
+from hyper_nav_filter.core import earth
+from hyper_nav_filter.core.attitude import quat_xyzw_to_C
 
 from .core.matching import MagSample, MatchResult, NavPoint
 
@@ -57,20 +61,15 @@ def nav_point(msg) -> NavPoint:
     if sl is not None and n > 0 and c.size == n * n and sl.stop <= n:
         P = c.reshape(n, n)[sl, sl]
         cov, alt_var = P[:2, :2].copy(), float(P[2, 2])
-    return NavPoint(stamp_to_s(msg.header.stamp), float(msg.lat_rad), float(msg.lon_rad), float(msg.alt_m),
-                    np.asarray(msg.vel_enu_mps, float).copy(), cov, alt_var)
-
-
-def interpolate_nav(a: NavPoint, b: NavPoint, t_s: float) -> NavPoint:
-    """Linear interpolation of two solutions bracketing t_s (covariance of
-    the nearer one)."""
-    if b.t_s == a.t_s:
-        return a
-    w = (t_s - a.t_s) / (b.t_s - a.t_s)
-    near = a if w < 0.5 else b
-    return NavPoint(t_s, a.lat_rad + w * (b.lat_rad - a.lat_rad), a.lon_rad + w * (b.lon_rad - a.lon_rad),
-                    a.alt_m + w * (b.alt_m - a.alt_m), a.vel_enu_mps + w * (b.vel_enu_mps - a.vel_enu_mps),
-                    near.cov_en_m2, near.alt_var_m2)
+    lat, alt = float(msg.lat_rad), float(msg.alt_m)
+    v = np.asarray(msg.vel_enu_mps, float).copy()
+    q = msg.q_b_enu
+    acc = np.zeros(3)
+    if all(np.isfinite([q.x, q.y, q.z, q.w])) and abs(q.x**2 + q.y**2 + q.z**2 + q.w**2 - 1.0) < 1e-3:
+        C = quat_xyzw_to_C([q.x, q.y, q.z, q.w])
+        acc = (C @ np.asarray(msg.accel_b_mps2, float) + earth.gravity_n(lat, alt)
+               - np.cross(2.0 * earth.omega_ie_n(lat) + earth.omega_en_n(lat, alt, v), v))
+    return NavPoint(stamp_to_s(msg.header.stamp), lat, float(msg.lon_rad), alt, v, cov, alt_var, acc)
 
 
 def _header(t_s: float, frame: str) -> dict:

@@ -33,7 +33,7 @@ import numpy as np
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.measurements import BaroHeight, GnssPosition, HorizontalFix
+from hyper_nav_filter.core.measurements import BaroHeight, HorizontalFix, PositionFix
 
 from .core.geomag_aiding import GeomagAiding
 from .core.matching import MagSample, NavPoint
@@ -140,11 +140,12 @@ class AidedFlight:
 
 
 def fix_measurement(res):
-    """The fusion measurement of a fix: horizontal (seed 003 eqs. 20-26,
-    ``HorizontalFix``) or, for a 3-D fix, a position fix with its full ENU
-    covariance (``GnssPosition``; the scenario's antenna lever arm is zero)."""
+    """The fusion measurement of a fix, as the fusion node's declared source
+    converts it: horizontal (``horizontal_fix`` -> ``HorizontalFix``, seed 003
+    eqs. 20-26) or, for a 3-D fix, ``position_fix`` -> ``PositionFix`` with
+    the full ENU covariance."""
     if res.cov_enu_m2 is not None:
-        return GnssPosition(res.t_s, res.lat_rad, res.lon_rad, res.alt_m, res.cov_enu_m2)
+        return PositionFix(res.t_s, res.lat_rad, res.lon_rad, res.alt_m, res.cov_enu_m2)
     return HorizontalFix(res.t_s, res.lat_rad, res.lon_rad, res.cov_en_m2)
 
 

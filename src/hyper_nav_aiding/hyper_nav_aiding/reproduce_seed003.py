@@ -248,7 +248,7 @@ def run_seed(job: SeedJob) -> dict:
             fl = starts[state_blocks_of(rc, sc, alg)].fork()
             fl.run_until(end, aiding, mag_t, mag_nT)
             m = _metrics(position_errors(fl.posterior, traj, t_all), t_all, grad, gcfg.start_s)
-            acc, rej = (sum(fl.eng.kf.stats.get(k, (0, 0, 0.0))[i] for k in ("horizontal_fix", "gnss_pos"))
+            acc, rej = (sum(fl.eng.kf.stats.get(k, (0, 0, 0.0))[i] for k in ("horizontal_fix", "position_fix"))
                         for i in (0, 1))
             m.update({"compute_time_s": aiding.compute_cpu_s, "compute_wall_s": aiding.compute_time_s,
                       "fixes_accepted": int(acc), "fixes_gated": int(rej),

@@ -44,13 +44,16 @@ from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
+# aiding nodes: started when the fusion node declares a source on their output topic
+AIDING_NODES = {"geomag": "geomag/fix"}
+AIDING_INPUTS = {"geomag": {"imu/mag"}}       # sensor topics they take (their publishers wait for them)
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
-               "player": ("hyper_nav_sim", "player")}
+               "player": ("hyper_nav_sim", "player"), "geomag": ("hyper_nav_aiding", "geomag_node")}
 
 
 def executable(name: str) -> str:
@@ -85,6 +88,20 @@ def fusion_inputs(sc: Scenario) -> set[str]:
             for i in src.inputs()}
 
 
+def flat_parameters(block: dict, prefix: str, skip=()) -> dict:
+    """A scenario block as dotted ROS parameters ({'geomag.magcom.area_cells': 25}):
+    the node declares and validates them (lists stay lists)."""
+    out = {}
+    for k, v in block.items():
+        if k in skip:
+            continue
+        if isinstance(v, dict):
+            out.update(flat_parameters(v, f"{prefix}.{k}"))
+        else:
+            out[f"{prefix}.{k}"] = v
+    return out
+
+
 def fusion_parameters(sc: Scenario) -> dict:
     """The fusion node's ROS parameters, all derived from the scenario."""
     from hyper_nav_filter.sources import spec_to_params
@@ -113,9 +130,11 @@ class Graph:
         self.workdir = pathlib.Path(self._tmp.name)
         self.scenario = apply_overrides(base, overrides, self.workdir)
         self.record = pathlib.Path(record) if record else None
+        self._fusion_inputs = fusion_inputs(self.scenario)
         if nodes is None:
             nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
-                                               if block in self.scenario.data) + ("fusion",)
+                                               if block in self.scenario.data) \
+                + tuple(n for n, topic in AIDING_NODES.items() if topic in self._fusion_inputs) + ("fusion",)
         self.nodes = tuple(nodes)
         self.extra = dict(extra_subscribers or {})
         self.node_params = node_params or {}
@@ -124,7 +143,6 @@ class Graph:
         self.domain_id = domain_id if domain_id is not None else int(os.environ.get("ROS_DOMAIN_ID", 0)) or \
             (os.getpid() % 100) + 1
         self.procs: dict[str, subprocess.Popen] = {}
-        self._fusion_inputs = fusion_inputs(self.scenario)
 
     # ---- parameters ------------------------------------------------------------
     def _subscribers(self, topics) -> int:
@@ -132,6 +150,7 @@ class Graph:
         n = 1 if self.record else 0
         if "fusion" in self.nodes and self._fusion_inputs & set(topics):
             n += 1
+        n += sum(1 for node, inputs in AIDING_INPUTS.items() if node in self.nodes and inputs & set(topics))
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
     def _params(self, name: str) -> dict:
@@ -147,6 +166,10 @@ class Graph:
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
             p["min_output_subscribers"] = self._subscribers(FUSION_OUTPUTS)
+        elif name == "geomag":
+            p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
+            p.update({"min_subscribers": self._subscribers([AIDING_NODES["geomag"]]),
+                      "qos.depth": int(self.scenario["graph.qos_depth"])})
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"])}
         else:

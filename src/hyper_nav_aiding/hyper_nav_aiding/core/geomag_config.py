@@ -79,8 +79,11 @@ class GeomagConfig:
                              "in seed 003 eqs. 20-26) or 'geometry' (along/across the field gradient)",
                              choices=FIX_COVARIANCES)
     isotropic_sigma_m: float = _f(100.0, "1-sigma of an isotropic fix (m), ours (the paper gives none)", 0.1, 1e6)
-    max_nav_gap_s: float = _f(0.5, "largest gap between a magnetometer stamp and the nav/state samples "
-                              "that bracket it (s)", 0.0, 100.0)
+    max_nav_gap_s: float = _f(0.5, "largest gap between the nav/state samples that bracket a magnetometer "
+                              "stamp (s)", 0.0, 100.0)
+    max_nav_prediction_s: float = _f(2.0, "a magnetometer sample newer than every nav/state is matched against "
+                                     "the newest one carried forward, if it is at most this old (s); else it "
+                                     "waits for its solution", 0.0, 100.0)
     map_file: str = _f("", "map file (.npz); empty: the cache (map_cache_dir) for the map spec")
     map_cache_dir: str = _f("", "map cache directory; empty: ~/.cache/hyper_nav/geomag")
     map: MapSpec = field(default_factory=MapSpec, metadata={"desc": "the map (model, epoch, altitude, grid)"})

@@ -3,8 +3,9 @@
 The bound answers: given this map, flight, IMU and map noise, how well can
 *any* estimator know the position? It is computed for the full INS error
 state (attitude, velocity, position, gyro/accelerometer bias and scale
-factor: ``hyper_nav_filter``'s error model, ``error_model.system_matrices``,
-evaluated along the true trajectory) with
+factor: ``hyper_nav_filter``'s error model, the ENU frame's 9 x 9 core and
+the blocks' couplings (``frames.enu``, ``system_model``), evaluated along the
+true trajectory) with
 
 * a Gaussian prior P0 (the initial errors and IMU error magnitudes);
 * the IMU white noise (ARW, VRW) as process noise, biases and scale factors
@@ -42,8 +43,9 @@ from scipy.linalg import cholesky, solve_triangular
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.config import FilterConfig
-from hyper_nav_filter.core.error_model import discretize, system_matrices
+from hyper_nav_filter.core.frames.enu import EnuFrame
 from hyper_nav_filter.core.nav_state import NavState
+from hyper_nav_filter.core.system_model import discretize, system_model
 
 SQRT_2_OVER_PI = float(np.sqrt(2.0 / np.pi))     # E|e| / sigma of a zero-mean Gaussian
 
@@ -61,9 +63,11 @@ def transitions_along_truth(traj, t_s, cfg: FilterConfig, substep_s: float = 0.1
     chained over sub-steps of about ``substep_s`` with the true state,
     specific force and body rate (exact increments over each sub-step)."""
     t_s = np.asarray(t_s, float)
-    lay = cfg.layout
-    n = lay.dim
-    noise = cfg.noise_psd(lay)
+    n = cfg.layout.dim
+    sm = system_model(cfg)
+    tr0 = traj.truth(t_s[:1])
+    frame = EnuFrame(cfg, NavState(float(t_s[0]), float(tr0.lat_rad[0]), float(tr0.lon_rad[0]), float(tr0.alt_m[0]),
+                                   np.asarray(tr0.vel_enu_mps[0], float), np.asarray(tr0.C_b_n[0], float)))
     Phi = np.tile(np.eye(n), (len(t_s), 1, 1))
     Q = np.zeros((len(t_s), n, n))
     for k in range(1, len(t_s)):
@@ -76,8 +80,10 @@ def transitions_along_truth(traj, t_s, cfg: FilterConfig, substep_s: float = 0.1
         for j in range(m):
             st = NavState(float(t_end[j]), float(tr.lat_rad[j]), float(tr.lon_rad[j]), float(tr.alt_m[j]),
                           np.asarray(tr.vel_enu_mps[j], float), np.asarray(tr.C_b_n[j], float))
-            F, G, qc = system_matrices(st, dv[j] / h, dth[j] / h, lay, cfg, noise)
-            ph, q = discretize(F, G, qc, h)
+            w, f = dth[j] / h, dv[j] / h
+            F9, C = frame.error_dynamics(frame.nominal(st), float(t_end[j]), f, w)
+            F, G, qc = sm.matrices(F9, C, w, f)
+            ph, q = discretize(F, G, qc, h, sm.exact)
             Phi[k] = ph @ Phi[k]
             Q[k] = ph @ Q[k] @ ph.T + q
     return ErrorTransitions(t_s, Phi, Q)

@@ -9,12 +9,14 @@ per match attempt, valid or not), and ``/diagnostics``. All math is in
 ``hyper_nav_aiding.core`` (``GeomagAiding``, the same engine the offline
 reproduction runs).
 
-Each magnetometer sample waits for the two nav/state samples that bracket
-its stamp (the fusion node releases its solutions ``output_delay_s``
-behind), is paired with the interpolated solution and queued to a worker
-thread, which matches and publishes: MAGCOM's search (~0.1 s) or a map
-build (tens of seconds at first start) never blocks the callbacks. The map
-is loaded (or built into the cache) on that thread too.
+Each magnetometer sample is paired with a solution for its stamp
+(``core.nav_reference``: interpolated when nav/state is ahead, else the
+newest one carried forward, since the fusion node releases its solutions
+``output_delay_s`` behind: the fix then reaches the filter before it
+releases that epoch) and queued to a worker thread, which matches and
+publishes: MAGCOM's search (~0.1 s) or a map build (tens of seconds at
+first start) never blocks the callbacks. The map is loaded (or built into
+the cache) on that thread too.
 
 Parameters: ``geomag.*`` (``GeomagConfig``, declared with descriptors,
 written from the scenario's ``geomag:`` block by ``run_graph``),
@@ -42,8 +44,7 @@ from hyper_nav_filter.ros_util import all_matched, diagnostic_array, publisher_q
 from .. import geomag_conversions as conv
 from ..core.geomag_aiding import GeomagAiding
 from ..core.geomag_config import GeomagConfig
-
-NAV_BUFFER_S = 10.0
+from ..core.nav_reference import WAIT, NavReference
 
 
 def _descriptor(name, default, desc, lo, hi, choices) -> ParameterDescriptor:
@@ -55,11 +56,12 @@ def _descriptor(name, default, desc, lo, hi, choices) -> ParameterDescriptor:
         if lo is not None and hi is not None:
             d.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=0)]
     elif isinstance(default, float):
-        d.type = ParameterType.PARAMETER_DOUBLE
+        # YAML writes 26000 for 26000.0: accept integers, GeomagConfig coerces and checks the range
+        d.type, d.dynamic_typing = ParameterType.PARAMETER_DOUBLE, True
         if lo is not None and hi is not None:
             d.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
     elif isinstance(default, list):
-        d.type = ParameterType.PARAMETER_DOUBLE_ARRAY
+        d.type, d.dynamic_typing = ParameterType.PARAMETER_DOUBLE_ARRAY, True
     else:
         d.type = ParameterType.PARAMETER_STRING
     return d
@@ -90,7 +92,7 @@ class GeomagNode(Node):
         self.counts = collections.Counter()
         self._lock = threading.Lock()
         self._mag = collections.deque()             # MagSample waiting for its nav/state
-        self._nav = collections.deque()             # NavPoint, time-ordered
+        self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s)
         self._last_mag_t = -np.inf
         self._jobs: queue.Queue = queue.Queue()
         self._stop = threading.Event()
@@ -142,31 +144,22 @@ class GeomagNode(Node):
                 and np.all(np.isfinite(n.vel_enu_mps))):
             self.counts["rejected_nav_nan"] += 1
             return
-        if self._nav and n.t_s <= self._nav[-1].t_s:
+        if not self._nav.add(n):
             self.counts["rejected_nav_out_of_order"] += 1
             return
-        self._nav.append(n)
-        while self._nav and self._nav[0].t_s < n.t_s - NAV_BUFFER_S:
-            self._nav.popleft()
         self._pair()
 
     def _pair(self):
-        """Pair each waiting magnetometer sample with the solution at its stamp."""
-        while self._mag and self._nav:
+        """Pair each waiting magnetometer sample with a solution for its stamp."""
+        while self._mag:
             s = self._mag[0]
-            if s.t_s > self._nav[-1].t_s + 1e-9:
-                return                                   # its nav/state has not come yet
+            nav, why = self._nav.at(s.t_s)
+            if why == WAIT:
+                return                                   # its solution has not come yet
             self._mag.popleft()
-            i = next((k for k, n in enumerate(self._nav) if n.t_s >= s.t_s - 1e-9), None)
-            if i is None or (i == 0 and self._nav[0].t_s > s.t_s + 1e-9):
-                self.counts["rejected_mag_stale"] += 1       # older than every buffered solution
+            if nav is None:
+                self.counts[f"rejected_mag_nav_{why}"] += 1
                 continue
-            b = self._nav[i]
-            a = self._nav[i - 1] if i > 0 else b
-            if b.t_s - s.t_s > 1e-9 and (b.t_s - a.t_s > self.cfg.max_nav_gap_s):
-                self.counts["rejected_nav_gap"] += 1
-                continue
-            nav = b if abs(b.t_s - s.t_s) <= 1e-9 else conv.interpolate_nav(a, b, s.t_s)
             if self._jobs.qsize() >= self.p["max_queue"]:
                 try:
                     self._jobs.get_nowait()
