@@ -44,17 +44,8 @@ from .core.geomag_config import GeomagConfig
 from .core.geomag_map import GeomagMap, cached_map_path, get_or_build, load_map
 from .geomag_bound import FlightBound
 from .offline_geomag import AidedFlight, baro_measurements, imu_streams, mag_total, position_errors
+from .seed003_table import format_table, plot, summarize
 
-# Seed 003 Table 3: duration (s) and absolute mean latitude / longitude error (m) over 420-790 s;
-# None = "Divergence"
-PAPER_TABLE3 = {
-    "MAGCOM": (13.8722, {0.1: (162.6191, 194.8881), 1.0: (1456.1120, None), 5.0: (1505.4120, None),
-                         10.0: (None, None)}),
-    "ICCP": (15.9434, {0.1: (343.4247, 1732.646), 1.0: (372.1157, 1798.634), 5.0: (727.4169, 3536.847),
-                       10.0: (749.1818, 3979.623)}),
-    "SIMAN": (6.5993, {0.1: (154.6980, 182.5864), 1.0: (155.0434, 184.2774), 5.0: (249.4415, 396.5313),
-                       10.0: (321.6272, 575.6865)}),
-}
 SHORT = {"duration_s": 60.0, "start_s": 30.0, "levels_nT": [1.0], "seeds": 2, "imu_decimate": 10,
          "map": {"lat_min_deg": 40.0, "lat_max_deg": 42.0, "lon_min_deg": 111.0, "lon_max_deg": 112.0,
                  "grid_step_deg": 0.05, "refine_factor": 40}}
@@ -79,7 +70,8 @@ class ReproConfig:
         except KeyError as exc:
             raise ValueError(f"geomag.reproduction: missing field {exc}") from None
         if rc.level_reading not in ("correlated", "white_uniform"):
-            raise ValueError(f"geomag.reproduction.level_reading: 'correlated' or 'white_uniform', got {rc.level_reading!r}")
+            raise ValueError("geomag.reproduction.level_reading: 'correlated' or 'white_uniform', "
+                             f"got {rc.level_reading!r}")
         if rc.attitude_reading not in ("enu", "body"):
             raise ValueError(f"geomag.reproduction.attitude_reading: 'enu' or 'body', got {rc.attitude_reading!r}")
         for a in rc.algorithms:
@@ -229,12 +221,12 @@ def run_seed(job: SeedJob) -> dict:
     baro = baro_measurements(sc, traj)
     init = sc.filter_initial_state()
     starts = {}
-    for blocks in {state_blocks_of(rc, sc, a) for a in rc.algorithms} | {tuple(sc.data["filter"]["config"]["state_blocks"])}:
+    ins_blocks = tuple(sc.data["filter"]["config"]["state_blocks"])
+    for blocks in {state_blocks_of(rc, sc, a) for a in rc.algorithms} | {ins_blocks}:
         fl = AidedFlight(filter_config(sc, rc, blocks), init, imu_t, dth, dv, baro)
         fl.run_until(gcfg.start_s - 1e-6)          # the epoch start_s and its sample belong to the aided part
         starts[blocks] = fl
     out = {"seed": job.seed, "truth": {k: v for k, v in truth_overrides(base, rc, job.seed).items()}, "cells": {}}
-    ins_blocks = tuple(sc.data["filter"]["config"]["state_blocks"])
     fl = starts[ins_blocks].fork()
     fl.run_until(end)
     out["ins"] = _metrics(position_errors(fl.posterior, traj, t_all), t_all, grad, gcfg.start_s)
@@ -273,118 +265,16 @@ def _metrics(err: np.ndarray, t: np.ndarray, grad_en: np.ndarray, start_s: float
     across = u[:, 0] * err[:, 1] - u[:, 1] * err[:, 0]
     w = (t >= start_s - 1e-9) & np.all(np.isfinite(err), axis=1)
     last = np.flatnonzero(np.all(np.isfinite(err), axis=1))[-1]
-    return {"lat_mean_abs_m": float(np.nanmean(np.abs(err[w, 1]))), "lon_mean_abs_m": float(np.nanmean(np.abs(err[w, 0]))),
-            "along_rms_m": float(np.sqrt(np.nanmean(along[w] ** 2))), "across_rms_m": float(np.sqrt(np.nanmean(across[w] ** 2))),
-            "along_mean_abs_m": float(np.nanmean(np.abs(along[w]))), "across_mean_abs_m": float(np.nanmean(np.abs(across[w]))),
+    def mean_abs(x):
+        return float(np.mean(np.abs(x[w])))
+
+    def rms(x):
+        return float(np.sqrt(np.mean(x[w] ** 2)))
+    return {"lat_mean_abs_m": mean_abs(err[:, 1]), "lon_mean_abs_m": mean_abs(err[:, 0]),
+            "along_rms_m": rms(along), "across_rms_m": rms(across),
+            "along_mean_abs_m": mean_abs(along), "across_mean_abs_m": mean_abs(across),
             "final_lat_abs_m": float(abs(err[last, 1])), "final_lon_abs_m": float(abs(err[last, 0])),
             "series_en_m": err[:, :2].astype(np.float32)}
-
-
-# ---- the whole table -----------------------------------------------------------------
-def _pct(x):
-    x = np.asarray(x, float)
-    return {"median": float(np.median(x)), "p5": float(np.percentile(x, 5)), "p95": float(np.percentile(x, 95)),
-            "rms": float(np.sqrt(np.mean(x**2)))}
-
-
-def summarize(results: list, rc: ReproConfig, bounds: dict, vector_bounds: dict) -> dict:
-    table = {"levels": {}, "config": {k: getattr(rc, k) for k in rc.__dataclass_fields__}}
-    ins = [r["ins"] for r in results]
-    for level in rc.levels_nT:
-        rows = {}
-        b = bounds[level]
-        for alg in rc.algorithms:
-            cells = [r["cells"][f"{level:g}/{alg}"] for r in results]
-            row = {k: _pct([c[k] for c in cells]) for k in ("lat_mean_abs_m", "lon_mean_abs_m", "along_rms_m",
-                                                             "across_rms_m", "compute_time_s")}
-            row["fixes_accepted"] = int(np.median([c["fixes_accepted"] for c in cells]))
-            row["fixes_gated"] = int(np.median([c["fixes_gated"] for c in cells]))
-            row["diverged_lat"] = float(np.mean([c["final_lat_abs_m"] > i["final_lat_abs_m"] for c, i in zip(cells, ins)]))
-            row["diverged_lon"] = float(np.mean([c["final_lon_abs_m"] > i["final_lon_abs_m"] for c, i in zip(cells, ins)]))
-            row["along_ratio_to_bound"] = row["along_rms_m"]["rms"] / b["along_rms_m"]
-            row["across_ratio_to_bound"] = row["across_rms_m"]["rms"] / b["across_rms_m"]
-            paper = PAPER_TABLE3.get(alg)           # the paper's own rows (not for variants)
-            if paper is not None:
-                row["paper"] = {"duration_s": paper[0], "lat_m": paper[1][level][0] if level in paper[1] else None,
-                                "lon_m": paper[1][level][1] if level in paper[1] else None}
-            rows[alg] = row
-        rows["INS"] = {k: _pct([c[k] for c in ins]) for k in ("lat_mean_abs_m", "lon_mean_abs_m", "along_rms_m",
-                                                              "across_rms_m")}
-        table["levels"][f"{level:g}"] = {"rows": rows, "bound": b, "bound_vector": vector_bounds.get(level)}
-    return table
-
-
-def format_table(table: dict, n_seeds: int) -> str:
-    c = table["config"]
-    lines = [f"Seed 003 Table 3, 420-790 s: level reading '{c['level_reading']}', attitude reading "
-             f"'{c['attitude_reading']}', {n_seeds} seeds: median [5-95 %]; paper: one run; "
-             f"PCRB lat/lon = mean |e| of N(0, bound)",
-             f"{'algorithm':9} {'nT':>5} | {'lat ours':>22} {'paper':>7} {'PCRB':>5} | {'lon ours':>22} "
-             f"{'paper':>7} {'PCRB':>5} | {'along RMS/PCRB':>16} {'across RMS/PCRB':>16} | {'time s':>6} {'paper':>6}"
-             f" | fixes  div lat/lon"]
-
-    def cell(p):
-        return f"{p['median']:7.1f} [{p['p5']:6.1f}-{p['p95']:7.1f}]"
-
-    def pap(v):
-        return "   div." if v is None else f"{v:7.1f}"
-    for lv, L in table["levels"].items():
-        b = L["bound"]
-        for alg, r in L["rows"].items():
-            if alg == "INS":
-                lines.append(f"{'pure INS':9} {lv:>5} | {cell(r['lat_mean_abs_m'])} {'':>7} {'':>5} | "
-                             f"{cell(r['lon_mean_abs_m'])} {'':>7} {'':>5} | {r['along_rms_m']['rms']:7.1f} {'':>8} "
-                             f"{r['across_rms_m']['rms']:7.1f}")
-                continue
-            p = r.get("paper", {})
-            lines.append(
-                f"{alg:9} {lv:>5} | {cell(r['lat_mean_abs_m'])} {pap(p.get('lat_m')) if p else '':>7} "
-                f"{b['n_mean_abs_m']:5.0f} | {cell(r['lon_mean_abs_m'])} {pap(p.get('lon_m')) if p else '':>7} "
-                f"{b['e_mean_abs_m']:5.0f} | {r['along_rms_m']['rms']:6.1f}/{b['along_rms_m']:5.1f}={r['along_ratio_to_bound']:4.2f} "
-                f"{r['across_rms_m']['rms']:6.1f}/{b['across_rms_m']:5.1f}={r['across_ratio_to_bound']:4.2f} | "
-                f"{r['compute_time_s']['median']:6.3f} {p.get('duration_s', float('nan')):6.2f} | "
-                f"{r['fixes_accepted']:3d}/{r['fixes_gated']:<3d} {r['diverged_lat']:.2f}/{r['diverged_lon']:.2f}")
-        vb = L.get("bound_vector")
-        if vb:
-            lines.append(f"{'PCRB 3-comp':9} {lv:>5} | along {vb['along_rms_m']:.1f} m, across {vb['across_rms_m']:.1f} m RMS "
-                         f"(total intensity: {b['along_rms_m']:.1f} / {b['across_rms_m']:.1f})")
-    return "\n".join(lines)
-
-
-def plot(series: dict, bounds_t: dict, t: np.ndarray, out_dir: pathlib.Path, levels, algorithms) -> list:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    files = []
-    colors = {"INS": "k", "MAGCOM": "tab:orange", "ICCP": "tab:green", "SIMAN": "tab:blue", "EKF": "tab:red"}
-    styles = {}
-    for a in algorithms:
-        styles[a] = (colors.get(base_algorithm(a), "tab:gray"), "-" if a == base_algorithm(a) else "--")
-    for level in levels:
-        fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
-        hb = bounds_t[level]
-        for ax, idx, name, sig in ((axes[0], 1, "latitude (north) error [m]", hb["sigma_n_m"]),
-                                   (axes[1], 0, "longitude (east) error [m]", hb["sigma_e_m"])):
-            ax.fill_between(hb["t_s"], -np.asarray(sig), np.asarray(sig), color="0.85", label="PCRB +-1 sigma")
-            ins = series["INS"][0]
-            ax.plot(t, ins[:, idx], color=colors["INS"], lw=1.0, label="pure INS")
-            for alg in algorithms:
-                e = series[f"{level:g}/{alg}"][0]
-                ax.plot(t, e[:, idx], color=styles[alg][0], ls=styles[alg][1], lw=1.0, label=alg)
-            ax.set_ylabel(name)
-            ax.axvline(420.0 if t[-1] > 420 else t[len(t) // 2], color="0.5", ls=":")
-            lim = np.nanpercentile(np.abs(np.concatenate([series[f"{level:g}/{a}"][0][:, idx] for a in algorithms])), 99)
-            ax.set_ylim(-max(2 * lim, 50), max(2 * lim, 50))
-            ax.grid(True, alpha=0.3)
-        axes[0].set_title(f"Seed 003 Figs. 6-9 analogue: map error level {level:g} nT (first seed; grey: PCRB)")
-        axes[1].set_xlabel("time [s]")
-        axes[0].legend(loc="upper left", fontsize=8, ncol=3)
-        f = out_dir / f"fig_{level:g}nT.png"
-        fig.tight_layout()
-        fig.savefig(f, dpi=110)
-        plt.close(fig)
-        files.append(f)
-    return files
 
 
 def main(argv=None) -> int:
@@ -457,8 +347,8 @@ def _run(args) -> int:
     for level in rc.levels_nT:
         hb = fb.bound(gcfg.start_s, rc.map_error_rms(level), rc.level_reading, sensor, corr_L)
         bounds[level] = hb.window(gcfg.start_s, end).summary()
-        bounds_t[level] = {"t_s": hb.t_s.tolist(), "sigma_n_m": hb.sigma_n_m.tolist(), "sigma_e_m": hb.sigma_e_m.tolist(),
-                           "sigma_along_m": hb.sigma_along_m.tolist(), "sigma_across_m": hb.sigma_across_m.tolist()}
+        bounds_t[level] = {k: getattr(hb, k).tolist() for k in ("t_s", "sigma_n_m", "sigma_e_m", "sigma_along_m",
+                                                                  "sigma_across_m")}
         if not args.no_vector_bound:
             vb = fb.bound(gcfg.start_s, rc.map_error_rms(level), rc.level_reading, sensor, corr_L, components="vector")
             vbounds[level] = vb.window(gcfg.start_s, end).summary()

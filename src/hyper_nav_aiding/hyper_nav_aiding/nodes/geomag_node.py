@@ -72,7 +72,8 @@ class GeomagNode(Node):
         super().__init__("geomag")
         values = {}
         for name, (default, desc, lo, hi, choices) in GeomagConfig.describe().items():
-            values[name] = self.declare_parameter(name, default, _descriptor(name, default, desc, lo, hi, choices)).value
+            d = _descriptor(name, default, desc, lo, hi, choices)
+            values[name] = self.declare_parameter(name, default, d).value
         self.cfg = GeomagConfig.from_flat(values)          # raises naming the field
         p = {name: self.declare_parameter(name, default, ParameterDescriptor(description=desc)).value
              for name, default, desc in [
@@ -119,8 +120,9 @@ class GeomagNode(Node):
             log.error(f"geomagnetic map refused, no fixes: {aiding.map_problem}")
         else:
             s = aiding.map.spec
-            log.info(f"map {s.model} epoch {s.epoch_decimal_year} at {s.alt_m:.0f} m, {s.lat_min_deg}-{s.lat_max_deg} N "
-                     f"{s.lon_min_deg}-{s.lon_max_deg} E, step {s.grid_step_deg} deg / {s.refine_factor}")
+            log.info(f"map {s.model} epoch {s.epoch_decimal_year} at {s.alt_m:.0f} m, "
+                     f"{s.lat_min_deg}-{s.lat_max_deg} N {s.lon_min_deg}-{s.lon_max_deg} E, "
+                     f"step {s.grid_step_deg} deg / {s.refine_factor}")
         self.aiding = aiding
 
     # ---- callbacks (short: validate, pair, queue) ---------------------------------------
@@ -220,10 +222,9 @@ class GeomagNode(Node):
         bad = sum(v for k, v in c.items() if str(k).startswith(("rejected_", "dropped_", "no_map", "off_map",
                                                                  "matcher_exceptions")) and isinstance(v, int))
         ok = a is not None and a.map is not None and bad == 0
+        msg = c["map"] if a is None or a.map is None else f"{bad} inputs without fix"
         with self._lock:
-            self.pub_diag.publish(diagnostic_array(self, "hyper_nav_aiding: geomag", ok,
-                                                   c["map"] if a is None or a.map is None else f"{bad} inputs without fix",
-                                                   c))
+            self.pub_diag.publish(diagnostic_array(self, "hyper_nav_aiding: geomag", ok, msg, c))
 
 
 def _assign(msg, values: dict):
