@@ -220,7 +220,7 @@ class GeomagMap:
         path = pathlib.Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"format_version": FORMAT_VERSION, "spec": dataclasses.asdict(self.spec), **self.provenance}
-        tmp = path.with_name(path.name + ".tmp.npz")
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp.npz")     # two builders never share a temp file
         np.savez(tmp, layers=self.layers, provenance=np.array(json.dumps(meta)))
         os.replace(tmp, path)
         return path
