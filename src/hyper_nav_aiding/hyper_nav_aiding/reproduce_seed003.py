@@ -32,7 +32,7 @@ import json
 import pathlib
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -358,7 +358,12 @@ def _run(args) -> int:
     t0 = time.perf_counter()
     if args.workers > 1:
         with ProcessPoolExecutor(max_workers=args.workers) as ex:
-            results = list(ex.map(run_seed, jobs))
+            futures = {ex.submit(run_seed, j): j.seed for j in jobs}
+            done = {}
+            for f in as_completed(futures):
+                done[futures[f]] = f.result()
+                log(f"seed {futures[f]} done ({len(done)}/{rc.seeds}, {time.perf_counter() - t0:.0f} s)")
+            results = [done[j.seed] for j in jobs]
     else:
         results = []
         for j in jobs:
