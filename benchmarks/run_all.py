@@ -1,166 +1,150 @@
 """hyper-nav benchmarks (figures, not pass/fail): ``make bench``.
 
-1. Cost per IMU epoch of predict and of each update type (mean over many calls).
-2. Real-time factor of the fusion core fed with messages exactly as the node
-   gets them (message -> conversions -> FusionEngine -> released solutions),
-   at 100 Hz and 500 Hz IMU; DDS transport is not included (see README).
-3. The same 15-state loosely coupled job with the covariance handled by
-   filterpy's KalmanFilter (predict with our Phi/Q, Joseph-form update), as
-   a baseline measured in the same run; ratios are ours / baseline.
+1. Fusion core cost per IMU epoch (FusionEngine: add_imu, the aiding
+   measurements, release of the solutions) for each paper configuration, on
+   the compiled fast path and on the plain numpy reference of the same filter
+   (``ErrorStateKF(fast=False)``), measured in the same process; their ratio;
+   the real-time factor at 50, 100, 200 and 500 Hz IMU (measured at each
+   rate, GNSS at the scenario's rate).
+2. Offline replay of a recorded default bag (300 s) through the core: real-time factor.
+3. (``--live``) the live node graph: the highest lossless real-time factor
+   (fusion received == published on every input, from its /diagnostics) for
+   the default scenario (50 Hz IMU) and seed 001 at its native 500 Hz, and
+   the fusion node's CPU share at that factor.
+
+Options: ``--quick`` (shorter flights), ``--live``, ``--json PATH``.
 """
 from __future__ import annotations
 
+import argparse
+import dataclasses
+import json
+import pathlib
 import sys
+import tempfile
 import time
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.eskf import ErrorStateKF
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.measurements import BaroHeight, GnssPosition, GnssVelocity, ModelContext
-from hyper_nav_filter.core.nav_state import ImuSample
-from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.offline_fly import gnss_measurements
+
+CONFIGS = [  # label, scenario, extra filter fields
+    ("ENU 15 (default: 50 Hz IMU, GNSS 10 Hz pos+vel)", "default", {}),
+    ("ENU 21 (default + gyro/accel scale factors)", "default",
+     {"state_blocks": ("att", "vel", "pos", "bg", "ba", "sg", "sa")}),
+    ("LCI 21 (seed 001, BDS 1 Hz)", "seed001", {}),
+    ("ENU 17 tightly coupled (seed 004, pseudoranges + rates)", "seed004_tight", {}),
+    ("ENU 24 elastic lever arm (seed 000)", "seed000_elastic", {}),
+]
+RATES_HZ = (50.0, 100.0, 200.0, 500.0)
 
 
-def timeit(fn, n):
-    t0 = time.perf_counter()
-    for _ in range(n):
-        fn()
-    return (time.perf_counter() - t0) / n
+def _scenario(name, rate_hz, duration_s):
+    sc = load_scenario(name)
+    over = {"duration_s": min(duration_s, sc["duration_s"])}
+    if rate_hz is not None:
+        over["imu.rate_hz"] = rate_hz
+    return apply_overrides(sc, over, pathlib.Path(tempfile.mkdtemp(prefix="bench_")))
 
 
-def per_call_costs(sc):
-    cfg = sc.filter_config()
+def _inputs(sc):
+    """IMU increments and time-ordered aiding measurements of a scenario."""
+    from hyper_nav_sim.core import simulate
     traj = sc.trajectory()
     imu = simulate.imu_stream(sc, traj)
-    kf = ErrorStateKF(cfg, sc.filter_initial_state(), cfg.initial_covariance())
-    samples = [ImuSample(imu.t_s[k], imu.dt_s, imu.dtheta_b_rad[k], imu.dvel_b_mps[k]) for k in range(2000)]
-    it = iter(samples)
-    t_pred = timeit(lambda: kf.predict(next(it)), 2000)
-    s = kf.state
-    ctx = ModelContext(np.zeros(3), np.zeros(3), 0.0)
-    pos = GnssPosition(s.t_s, s.lat_rad, s.lon_rad, s.alt_m, np.eye(3) * 25.0)
-    vel = GnssVelocity(s.t_s, s.vel_enu_mps.copy(), np.eye(3) * 0.01)
-    baro = BaroHeight(s.t_s, s.alt_m, 100.0)
-    out = {"predict (mechanization + F + Phi P Phi^T)": t_pred}
-    for name, m in (("update gnss position", pos), ("update gnss velocity", vel), ("update baro height", baro)):
-        out[name] = timeit(lambda m=m: kf.update(m.kind, s.t_s, *m.model(kf.state, cfg.layout, ctx)), 500)
-    return out
-
-
-def configuration_costs():
-    """Predict per IMU epoch of the paper configurations, and the tightly
-    coupled update (8 satellites, pseudoranges + rates)."""
-    from hyper_nav_filter.core.fusion import make_filter
-    from hyper_nav_filter.core.tightly_coupled import Pseudoranges
-    out = {}
-    for label, name in (("predict seed 004, ENU 17 states (clk)", "seed004_tight"),
-                        ("predict seed 001, LCI 21 states (sg, sa)", "seed001"),
-                        ("predict seed 000, ENU 24 states (gm, lev)", "seed000_elastic")):
-        sc = load_scenario(name)
+    sources = sc.filter_sources()
+    if any(s["type"] == "gnss_raw" for s in sources.values()):
+        from hyper_nav_filter.sources import make_sources
         cfg = sc.filter_config()
-        traj = sc.trajectory()
-        imu = simulate.imu_stream(sc, traj)
-        kf = make_filter(cfg, sc.filter_initial_state())
-        samples = [ImuSample(imu.t_s[k], imu.dt_s, imu.dtheta_b_rad[k], imu.dvel_b_mps[k]) for k in range(1000)]
-        it = iter(samples)
-        out[label] = timeit(lambda: kf.predict(next(it)), 1000)
-        if cfg.layout.has("clk"):
-            s = kf.state
-            r_a = earth.geodetic_to_ecef(s.lat_rad, s.lon_rad, s.alt_m)
-            az = np.deg2rad(np.arange(8) * 45.0)
-            el = np.deg2rad([20.0, 60.0] * 4)
-            C_n_e = earth.C_n_e(s.lat_rad, s.lon_rad)
-            u = (C_n_e @ np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)])).T
-            sat = r_a + 2.2e7 * u
-            pr = Pseudoranges(s.t_s, sat, np.zeros((8, 3)), np.linalg.norm(sat - r_a, axis=1), np.full(8, 9.0),
-                              np.zeros(8), np.full(8, 0.01))
-            ctx = ModelContext(np.zeros(3), np.zeros(3), 0.0)
-            out["update pseudoranges + rates, 8 satellites"] = timeit(
-                lambda: kf.update(pr.kind, s.t_s, *pr.model(kf.state, cfg.layout, ctx)), 300)
-    return out
+        tight = next(s.tight for s in make_sources(sc.filter_source_specs(), cfg) if s.spec.type == "gnss_raw")
+        return imu, simulate.gnss_raw_stream(sc, traj), tight
+    return imu, gnss_measurements(sc, traj), None
 
 
-class FilterpyBaseline:
-    """15-state loosely coupled ESKF whose covariance algebra is filterpy's."""
-
-    def __init__(self, cfg, initial):
-        from filterpy.kalman import KalmanFilter
-        self.cfg = cfg
-        self.kf = KalmanFilter(dim_x=cfg.layout.dim, dim_z=3)
-        self.kf.P = cfg.initial_covariance()
-        self.helper = ErrorStateKF(cfg, initial.copy(), cfg.initial_covariance())   # nominal state, Phi and Q
-
-    def predict(self, imu):
-        lin = self.helper.linearize(imu)
-        self.helper.predict(imu)          # the nominal state (its own P is not used)
-        self.kf.predict(F=lin.Phi, Q=lin.Q)
-
-    def update(self, meas):
-        z, H, R = meas.model(self.helper.state, self.cfg.layout, ModelContext(np.zeros(3), np.zeros(3), 0.0))
-        self.kf.x = np.zeros((self.cfg.layout.dim, 1))
-        self.kf.update(z.reshape(-1, 1), R=R, H=H)
-        self.helper.inject(self.kf.x.ravel())
-
-
-def realtime_factor(sc, rate_hz, duration_s=30.0, baseline=False):
-    import tempfile
-    import pathlib
-    sc = apply_overrides(sc, {"imu.rate_hz": rate_hz, "duration_s": duration_s},
-                         pathlib.Path(tempfile.mkdtemp(prefix="bench_")))
-    traj = sc.trajectory()
-    imu, g = simulate.imu_stream(sc, traj), simulate.gnss_stream(sc, traj)
-    meas = []
-    for i in range(len(g.t_s)):
-        meas.append(GnssPosition(g.t_s[i], g.lat_rad[i], g.lon_rad[i], g.alt_m[i], np.diag(g.pos_sigma_enu_m**2)))
-        meas.append(GnssVelocity(g.t_s[i], g.vel_enu_mps[i], np.diag(g.vel_sigma_enu_mps**2)))
-    t0 = time.perf_counter()
-    if baseline:
-        b = FilterpyBaseline(sc.filter_config(), sc.filter_initial_state())
-        j = 0
-        for k in range(len(imu.t_s)):
-            b.predict(ImuSample(imu.t_s[k], imu.dt_s, imu.dtheta_b_rad[k], imu.dvel_b_mps[k]))
-            while j < len(meas) and meas[j].t_s <= imu.t_s[k] + 1e-9:
-                b.update(meas[j])
-                j += 1
-        state = b.helper.state
-    else:
-        eng = FusionEngine(sc.filter_config(), sc.filter_initial_state())
-        j = 0
-        for k in range(len(imu.t_s)):
-            eng.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
-            while j < len(meas) and meas[j].t_s <= imu.t_s[k] + 1e-9:
+def engine_cost(sc, cfg, fast: bool, warmup: int = 200) -> tuple[float, int]:
+    """Seconds per IMU epoch of the engine over the scenario (and epochs run)."""
+    imu, meas, tight = _inputs(sc)
+    eng = FusionEngine(cfg, sc.filter_initial_state())
+    eng.kf.fast = fast
+    n = len(imu.t_s)
+    j = 0
+    t0 = None
+    for k in range(n):
+        if k == warmup:
+            t0 = time.perf_counter()
+        eng.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        while j < len(meas) and meas[j].t_s <= imu.t_s[k] + 1e-9:
+            if tight is None:
                 eng.add_measurement(meas[j])
-                j += 1
-            eng.release()
-        state = eng.kf.state
+            else:
+                for eph in meas[j].ephemeris_set:
+                    tight.add_ephemeris(eph)
+                tight.add_raw(meas[j].raw())
+            j += 1
+        if tight is not None:
+            tight.feed(eng)
+        eng.release()
+    return (time.perf_counter() - t0) / (n - warmup), n - warmup
+
+
+def offline_replay(duration_s: float) -> dict:
+    """Record the default scenario's sensor streams as a bag (offline, no
+    DDS) and time the replay through the core (``run_offline``)."""
+    from bag_fixture import write_sensor_bag
+    from hyper_nav_filter.offline import run_offline
+    from hyper_nav_sim.core.bag import deserialize, read_bag
+    sc = _scenario("default", None, duration_s)
+    bag = pathlib.Path(tempfile.mkdtemp(prefix="bench_bag_")) / "default"
+    write_sensor_bag(sc, bag)
+    t0 = time.perf_counter()
+    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
+               if r.topic.lstrip("/") in ("imu/data_raw", "gnss/fix", "gnss/vel")]
+    t_read = time.perf_counter() - t0
+    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
     wall = time.perf_counter() - t0
-    tr = traj.truth([state.t_s])
-    err = np.linalg.norm(earth.position_error_enu_m(state.lat_rad, state.lon_rad, state.alt_m,
-                                                    tr.lat_rad[0], tr.lon_rad[0], tr.alt_m[0]))
-    return duration_s / wall, wall, err
+    return {"sim_s": sc["duration_s"], "wall_s": wall, "read_s": t_read, "rtf": sc["duration_s"] / wall,
+            "solutions": len(sols)}
 
 
-def main() -> int:
-    sc = load_scenario("default")
-    print("== cost per call (default scenario, 15 states, 50 Hz IMU) ==")
-    for name, t in per_call_costs(sc).items():
-        print(f"  {name:45s} {t * 1e6:8.1f} us")
-    print("== cost per call, paper configurations ==")
-    for name, t in configuration_costs().items():
-        print(f"  {name:45s} {t * 1e6:8.1f} us")
-    print("== real-time factor of the fusion core (30 s flight, GNSS 10 Hz pos+vel) ==")
-    print(f"  {'IMU rate':>8s} {'hyper-nav RTF':>14s} {'filterpy RTF':>13s} {'ratio':>7s}"
-          f" {'final pos err ours/filterpy [m]':>32s}")
-    for rate in (100.0, 500.0):
-        ours, _, e1 = realtime_factor(sc, rate)
-        base, _, e2 = realtime_factor(sc, rate, baseline=True)
-        print(f"  {rate:8.0f} {ours:14.1f} {base:13.1f} {ours / base:7.2f} {e1:15.3f} / {e2:.3f}")
-    print("  (hyper-nav includes the reorder buffer, snapshots and fixed-lag release; "
-          "filterpy applies updates as they come)")
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--live", action="store_true", help="also search the highest lossless live real-time factor")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    dur = 10.0 if args.quick else 40.0
+    out = {"configs": {}}
+    print("== fusion core cost per IMU epoch (add_imu + aiding + release), fast path vs numpy reference ==")
+    print(f"  {'configuration':58s} {'fast us':>8s} {'numpy us':>9s} {'ratio':>6s}  RTF at " +
+          " ".join(f"{r:>6.0f} Hz" for r in RATES_HZ))
+    for label, name, extra in CONFIGS:
+        sc = _scenario(name, None, dur)
+        cfg = dataclasses.replace(sc.filter_config(), **extra)
+        engine_cost(sc, cfg, True, warmup=0)                   # compile / load the kernels once
+        fast, n = engine_cost(sc, cfg, True)
+        ref, _ = engine_cost(sc, cfg, False)
+        rtf = {}
+        for rate in RATES_HZ:
+            sr = _scenario(name, rate, dur / 2)
+            c, _ = engine_cost(sr, dataclasses.replace(sr.filter_config(), **extra), True)
+            rtf[rate] = 1.0 / (c * rate)
+        out["configs"][label] = {"fast_us": fast * 1e6, "numpy_us": ref * 1e6, "ratio": ref / fast, "epochs": n,
+                                 "rtf": rtf}
+        print(f"  {label:58s} {fast * 1e6:8.1f} {ref * 1e6:9.1f} {ref / fast:6.1f}  " +
+              " ".join(f"{rtf[r]:9.1f}" for r in RATES_HZ))
+    print("  (numpy = the same filter with ErrorStateKF(fast=False): the readable reference implementation)")
+    rep = offline_replay(60.0 if args.quick else 300.0)
+    out["offline_replay"] = rep
+    print(f"== offline replay of a {rep['sim_s']:.0f} s default bag: {rep['wall_s']:.1f} s wall "
+          f"(reading {rep['read_s']:.1f} s), {rep['rtf']:.0f}x real time, {rep['solutions']} solutions ==")
+    if args.live:
+        from live_graph import live_search
+        out["live"] = live_search(quick=args.quick)
+    if args.json:
+        pathlib.Path(args.json).write_text(json.dumps(out, indent=2, default=float))
     return 0
 
 

@@ -63,6 +63,12 @@ def _post_init(self):
         object.__setattr__(self, "layout", StateLayout(tuple(self.state_blocks)))
     except ValueError as exc:
         raise ConfigError(f"filter config field 'state_blocks': {exc}") from None
+    # hashed once: configurations key the caches of derived models (system model, modal model)
+    object.__setattr__(self, "_hash", hash(tuple(getattr(self, p.name) for p in ALL_PARAMS)))
+
+
+def _hash(self) -> int:
+    return self._hash
 
 
 @classmethod
@@ -97,8 +103,9 @@ def _as_dict(self) -> dict:
 FilterConfig = dataclasses.make_dataclass(
     "FilterConfig",
     [(p.name, object, dataclasses.field(default=p.default)) for p in ALL_PARAMS]
-    + [("layout", StateLayout, dataclasses.field(init=False, repr=False, compare=False))],
-    namespace={"__post_init__": _post_init, "from_dict": _from_dict, "with_updates": _with_updates,
+    + [("layout", StateLayout, dataclasses.field(init=False, repr=False, compare=False)),
+       ("_hash", int, dataclasses.field(init=False, repr=False, compare=False))],
+    namespace={"__post_init__": _post_init, "__hash__": _hash, "from_dict": _from_dict, "with_updates": _with_updates,
                "initial_covariance": _initial_covariance, "as_dict": _as_dict,
                "__doc__": "Filter configuration; fields and meanings: ``config.ALL_PARAMS`` (core.params.ParamSpec)."},
     frozen=True)

@@ -119,8 +119,9 @@ def enu_offset_m(lat0_rad, lon0_rad, alt0_m, lat_rad, lon_rad, alt_m):
 
 
 def position_error_enu_m(lat_rad, lon_rad, alt_m, lat_ref_rad, lon_ref_rad, alt_ref_m):
-    """Small position difference (estimate - reference) in local ENU metres."""
+    """Small position difference (estimate - reference) in local ENU metres
+    (the longitude difference wrapped to [-pi, pi): across 180 deg too)."""
     r_m, r_n = radii(lat_ref_rad)
-    return np.stack([(lon_rad - lon_ref_rad) * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
+    return np.stack([wrap_lon_rad(np.asarray(lon_rad) - lon_ref_rad) * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
                      (lat_rad - lat_ref_rad) * (r_m + alt_ref_m),
                      alt_m - alt_ref_m], axis=-1)

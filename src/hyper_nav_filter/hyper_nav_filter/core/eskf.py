@@ -22,12 +22,14 @@ snapshot is a set of references and costs nothing to take.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.stats import chi2
 
 from .blocks.base import Block
 from .config import FilterConfig
+from .fast import update as fast_update
 from .frames import make_frame
 from .nav_state import ImuSample, NavState
 from .system_model import discretize, system_model
@@ -57,10 +59,10 @@ class Linearization:
     Q: np.ndarray
 
 
-@dataclass(frozen=True)
-class FilterSnapshot:
+class FilterSnapshot(NamedTuple):
     """Everything needed to resume the filter at an epoch (re-processing,
-    smoothing), including the configuration (model) in force."""
+    smoothing), including the configuration (model) in force. (A NamedTuple
+    of references: one is taken per IMU epoch.)"""
     t_s: float
     x_nav: np.ndarray
     values: np.ndarray
@@ -74,10 +76,14 @@ class FilterSnapshot:
 
 
 class ErrorStateKF:
-    def __init__(self, config: FilterConfig, state: NavState, P0: np.ndarray | None = None, **frame_kw):
+    def __init__(self, config: FilterConfig, state: NavState, P0: np.ndarray | None = None, fast: bool = True,
+                 **frame_kw):
         """``state``: initial nominal state (geodetic/ENU view, block values in
         its bias fields and ``extra``); ``P0`` in the ENU error convention
-        (default ``config.initial_covariance()``)."""
+        (default ``config.initial_covariance()``). ``fast``: the compiled
+        predict (core.fast) where the frame has one; False keeps the numpy
+        reference implementation (``linearize``), which tests compare with."""
+        self.fast = fast
         self.cfg = config
         self.layout = config.layout
         self.frame = make_frame(config, state, **frame_kw)
@@ -199,6 +205,9 @@ class ErrorStateKF:
     # ---- predict ----------------------------------------------------------------------
     def predict(self, imu: ImuSample) -> None:
         """Mechanize one IMU interval and propagate the covariance."""
+        if self.fast:
+            self._predict_fast(imu)
+            return
         lin = self.linearize(imu)
         self.x_nav = self.frame.mechanize(self.x_nav, self.t_s, lin.dth, lin.dv, lin.dth_p, lin.dv_p, imu.dt_s)
         new_vals = lin.values
@@ -211,6 +220,32 @@ class ErrorStateKF:
         P = lin.Phi @ self.P @ lin.Phi.T + lin.Q
         self.P = 0.5 * (P + P.T)
         self.last_Phi, self.P_prior = lin.Phi, self.P
+        self.epoch_dx = None
+
+    def _predict_fast(self, imu: ImuSample) -> None:
+        """``predict`` through the frame's compiled kernel (same equations as
+        ``linearize`` + the mechanization); IMU pre-processing blocks and
+        nominal block propagation around it as in the reference."""
+        vals = new_vals = self.values
+        if self._preprocessors:
+            dt = imu.dt_s
+            dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, vals)
+            prev = self.imu_prev
+            w_prev = None if prev is None else \
+                self.corrected(prev.dtheta_b_rad, prev.dvel_b_mps, prev.dt_s, vals)[0] / prev.dt_s
+            new_vals = vals.copy()
+            for blk, s in self._preprocessors:
+                dv_remove, new_vals[s] = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, True)
+                imu = ImuSample(imu.t_s, dt, imu.dtheta_b_rad, imu.dvel_b_mps - dv_remove)
+        self.x_nav, self.P, Phi = self.frame.fast_predict(self.x_nav, self.t_s, vals, self.P, imu,
+                                                          self.imu_prev, self.sys)
+        for blk, s in self._propagated:
+            new_vals = new_vals.copy() if new_vals is vals else new_vals
+            new_vals[s] = blk.propagate(new_vals[s], imu.dt_s, self.cfg)
+        self.values = new_vals
+        self.imu_prev = imu
+        self.t_s = imu.t_s
+        self.last_Phi, self.P_prior = Phi, self.P
         self.epoch_dx = None
 
     def linearize(self, imu: ImuSample) -> "Linearization":
@@ -231,7 +266,7 @@ class ErrorStateKF:
             wdot = (dth / dt - w_prev) / dt
         new_vals = vals
         for blk, s in self._preprocessors:
-            dv_remove, v1 = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg)
+            dv_remove, v1 = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, self.fast)
             imu = ImuSample(imu.t_s, dt, imu.dtheta_b_rad, imu.dvel_b_mps - dv_remove)
             dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, vals)
             new_vals = new_vals.copy() if new_vals is vals else new_vals
@@ -267,30 +302,46 @@ class ErrorStateKF:
         """Apply a measurement: residual = predicted - measured, H its Jacobian
         w.r.t. this filter's error state, R its covariance."""
         residual = np.asarray(residual, dtype=float)
+        dof = len(residual)
+        acc, gated, nis_sum = self.stats.get(kind, (0, 0, 0.0))
+        if self.fast:
+            status, nis, dx, P = fast_update.joseph_update(self.P, np.ascontiguousarray(H, dtype=float),
+                                                           np.ascontiguousarray(R, dtype=float),
+                                                           np.ascontiguousarray(residual), float(self.gate_threshold(dof)))
+            nis = float(nis)
+        else:
+            status, nis, dx, P = self._update_reference(residual, H, R, dof)
+        if status == 2:
+            self.n_rejected += 1
+            return UpdateResult(kind, t_s, float("inf"), False, residual)
+        self.last_nis = nis
+        if status == 1:
+            self.n_rejected += 1
+            self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
+            return UpdateResult(kind, t_s, nis, False, residual)
+        self.stats = {**self.stats, kind: (acc + 1, gated, nis_sum + nis / dof)}
+        self.P = P
+        self.inject(dx)
+        self.epoch_dx = dx if self.epoch_dx is None else self.epoch_dx + dx
+        self.n_updates += 1
+        return UpdateResult(kind, t_s, nis, True, residual)
+
+    def _update_reference(self, residual, H, R, dof):
+        """The numpy form of ``fast.update.joseph_update``: (status, nis, dx, P')."""
         S = H @ self.P @ H.T + R
         S = 0.5 * (S + S.T)
         try:
             S_inv_r = np.linalg.solve(S, residual)
         except np.linalg.LinAlgError:
-            self.n_rejected += 1
-            return UpdateResult(kind, t_s, float("inf"), False, residual)
+            return 2, float("inf"), None, self.P
         nis = float(residual @ S_inv_r)
-        self.last_nis = nis
-        acc, gated, nis_sum = self.stats.get(kind, (0, 0, 0.0))
-        if not np.isfinite(nis) or nis > self.gate_threshold(len(residual)):
-            self.n_rejected += 1
-            self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
-            return UpdateResult(kind, t_s, nis, False, residual)
-        self.stats = {**self.stats, kind: (acc + 1, gated, nis_sum + nis / len(residual))}
+        if not np.isfinite(nis) or nis > self.gate_threshold(dof):
+            return 1, nis, None, self.P
         K = np.linalg.solve(S, H @ self.P).T          # P H^T S^-1 (S symmetric)
         dx = K @ residual
         I_KH = np.eye(self.layout.dim) - K @ H
         P = I_KH @ self.P @ I_KH.T + K @ R @ K.T        # Joseph form
-        self.P = 0.5 * (P + P.T)
-        self.inject(dx)
-        self.epoch_dx = dx if self.epoch_dx is None else self.epoch_dx + dx
-        self.n_updates += 1
-        return UpdateResult(kind, t_s, nis, True, residual)
+        return 0, nis, dx, 0.5 * (P + P.T)
 
     def inject(self, dx: np.ndarray) -> None:
         """Correct the nominal state with an error estimate dx (estimate -

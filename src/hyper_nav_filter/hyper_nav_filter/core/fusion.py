@@ -32,7 +32,6 @@ from __future__ import annotations
 import bisect
 import math
 from collections import Counter
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,34 +51,78 @@ MODE_WINDOW_S = 1.0            # a source counts toward the mode for this long a
 _EPS_S = 1e-9
 
 
+def _vec(x) -> np.ndarray:
+    return x if type(x) is np.ndarray and x.dtype == np.float64 else np.asarray(x, dtype=float)
+
+
 def make_filter(cfg: FilterConfig, initial: NavState) -> ErrorStateKF:
     """The error-state filter of the configured mechanization frame."""
     return ErrorStateKF(cfg, initial)
 
 
-@dataclass
 class Solution:
-    t_s: float
-    state: NavState
-    P: np.ndarray                  # ENU error convention
-    mode: int
-    n_updates: int
-    n_rejected: int
-    last_nis: float
-    omega_ib_b_radps: np.ndarray
-    f_b_mps2: np.ndarray
-    sources: tuple = ()            # measurement kinds accepted within MODE_WINDOW_S
+    """A released solution at epoch t_s: the geodetic/ENU state with the
+    ENU-convention covariance, its mode and counters, and the corrected body
+    rate and specific force of its last IMU interval. Built lazily from the
+    filter snapshot by the engine (``Solution.of``): the state view and the
+    covariance transform are computed when read."""
+    __slots__ = ("t_s", "mode", "n_updates", "n_rejected", "last_nis", "sources", "_state", "_P", "_w", "_f", "_src")
+
+    def __init__(self, t_s, state, P, mode, n_updates, n_rejected, last_nis, omega_ib_b_radps=None, f_b_mps2=None,
+                 sources=()):
+        self.t_s, self.mode, self.n_updates, self.n_rejected, self.last_nis = t_s, mode, n_updates, n_rejected, \
+            last_nis
+        self.sources = sources
+        self._state, self._P, self._w, self._f, self._src = state, P, omega_ib_b_radps, f_b_mps2, None
+
+    @classmethod
+    def of(cls, kf, snap, imu, mode, sources) -> "Solution":
+        sol = cls(imu.t_s, None, None, mode, snap.n_updates, snap.n_rejected, snap.last_nis, sources=sources)
+        sol._src = (kf, snap, imu)
+        return sol
+
+    @property
+    def state(self) -> NavState:
+        if self._state is None:
+            kf, snap, _ = self._src
+            self._state = kf.snapshot_state(snap)
+        return self._state
+
+    @property
+    def P(self) -> np.ndarray:
+        if self._P is None:
+            kf, snap, _ = self._src
+            self._P = kf.P_enu(snap)
+        return self._P
+
+    def _rates(self):
+        kf, snap, imu = self._src
+        dth, dv = kf.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, snap.values)
+        self._w, self._f = dth / imu.dt_s, dv / imu.dt_s
+
+    @property
+    def omega_ib_b_radps(self) -> np.ndarray:
+        if self._w is None:
+            self._rates()
+        return self._w
+
+    @property
+    def f_b_mps2(self) -> np.ndarray:
+        if self._f is None:
+            self._rates()
+        return self._f
 
 
-@dataclass
 class _Epoch:
-    imu: ImuSample
-    snap: FilterSnapshot
-    last_accept: dict              # {kind: t of the last accepted update}, copy-on-write
-    extra_Q: np.ndarray | None = None    # covariance inflation after this epoch (IMU gap)
-    Phi: np.ndarray | None = None        # transition from the previous epoch (smoother)
-    P_prior: np.ndarray | None = None    # covariance before this epoch's updates
-    dx: np.ndarray | None = None         # sum of the error corrections applied here
+    """One stored IMU epoch: its sample, the filter snapshot after its
+    updates, the last acceptance time per (kind, coupling), an IMU-gap
+    covariance inflation, the key of the last event applied and the model
+    context of the epoch, and the smoother's per-epoch quantities."""
+    __slots__ = ("imu", "snap", "last_accept", "extra_Q", "last_key", "ctx", "Phi", "P_prior", "dx")
+
+    def __init__(self, imu, snap, last_accept, extra_Q=None):
+        self.imu, self.snap, self.last_accept, self.extra_Q = imu, snap, last_accept, extra_Q
+        self.last_key = self.ctx = self.Phi = self.P_prior = self.dx = None
 
 
 class FusionEngine:
@@ -115,8 +158,8 @@ class FusionEngine:
     def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps) -> tuple[bool, str]:
         """Add an IMU sample stamped at the end of its interval. Returns
         (accepted, reason); rejected samples are counted, never raised."""
-        dth = np.asarray(dtheta_b_rad, dtype=float)
-        dv = np.asarray(dvel_b_mps, dtype=float)
+        dth = _vec(dtheta_b_rad)
+        dv = _vec(dvel_b_mps)
         ok, reason = self._check_imu_time(t_s, dth, dv)
         if not ok:
             return ok, reason
@@ -127,8 +170,8 @@ class FusionEngine:
         """Add an IMU sample given as mean rates over its interval (the
         sensor_msgs/Imu mapping): increments = rate * (t_s - t_latest), or
         rate * the nominal interval after a gap."""
-        w = np.asarray(omega_b_radps, float)
-        f = np.asarray(f_b_mps2, float)
+        w = _vec(omega_b_radps)
+        f = _vec(f_b_mps2)
         ok, reason = self._check_imu_time(t_s, w, f)
         if not ok:
             return ok, reason
@@ -137,7 +180,7 @@ class FusionEngine:
         return True, "ok"
 
     def _check_imu_time(self, t_s, a, b) -> tuple[bool, str]:
-        if not (math.isfinite(t_s) and np.isfinite(a).all() and np.isfinite(b).all()):
+        if not math.isfinite(t_s + a[0] + a[1] + a[2] + b[0] + b[1] + b[2]):     # NaN/inf propagate through the sum
             return self._reject("imu_nan")
         dt = t_s - self.t_latest_s
         if dt == 0.0 and self._times:
@@ -188,13 +231,21 @@ class FusionEngine:
             # a delay longer than output_delay_s (live and offline may differ)
             self.counters[f"{kind}_after_release"] += 1
         self._seq += 1
-        bisect.insort(self._events, (t, priority, kind, self._seq, event))
+        key = (t, priority, kind, self._seq, event)
+        bisect.insort(self._events, key)
         self.counters[f"{kind}_received"] += 1
         if self._times and t <= self._times[-1] + _EPS_S:
             j = bisect.bisect_left(self._times, t - _EPS_S)
             if t < self._times[-1] - _EPS_S:
                 self.counters[f"{kind}_late"] += 1
-            self._dirty_from = min(self._dirty_from, j)
+            last = self._epochs[-1]
+            if j == len(self._epochs) - 1 and self._at == j and self._dirty_from == math.inf \
+                    and (last.last_key is None or key[:4] > last.last_key):
+                # it belongs to the latest epoch and sorts after what was applied there: applying it
+                # to the current state is what re-processing the epoch would give
+                self._apply(last, [key])
+            else:
+                self._dirty_from = min(self._dirty_from, j)
         return True, "ok"
 
     # ---- gaps ---------------------------------------------------------------------
@@ -265,31 +316,37 @@ class FusionEngine:
         prev = self._epochs[k - 1] if k > 0 else None
         if self._at != k - 1:
             self.kf.restore(prev.snap if prev else self._base)
-        accept = prev.last_accept if prev else self._base_accept
         old = self._epochs[k]
         t_prev = self.kf.t_s
         self.kf.predict(imu)
         if old is not None and old.extra_Q is not None:
             self.kf.P = self.kf.P + old.extra_Q
             self.kf.P_prior = self.kf.P
+        ep = _Epoch(imu, None, prev.last_accept if prev else self._base_accept,
+                    old.extra_Q if old is not None else None)
         lo = bisect.bisect_right(self._events, (t_prev + _EPS_S,))
         hi = bisect.bisect_right(self._events, (imu.t_s + _EPS_S,))
-        if lo < hi:
-            ctx = None
-            for t_m, _, _, _, ev in self._events[lo:hi]:
-                if ev.kind == "model_update":
-                    self.kf.apply_model_update(ev.fields)
-                    continue
-                if ctx is None:
-                    ctx = ModelContext.at(self.kf, imu, self.cfg.antenna_lever_arm_b_m)
-                res = self.kf.update(ev.kind, t_m, *self.kf.model(ev, ctx.shifted(t_m - imu.t_s)))
+        self._epochs[k] = ep
+        self._apply(ep, self._events[lo:hi])
+        self._at = k
+
+    def _apply(self, ep: "_Epoch", events) -> None:
+        """Apply events (in order) to the filter, which is at epoch ``ep``
+        after its predict and any earlier events; then snapshot the epoch."""
+        for key in events:
+            t_m, ev = key[0], key[-1]
+            if ev.kind == "model_update":
+                self.kf.apply_model_update(ev.fields)
+            else:
+                if ep.ctx is None:
+                    ep.ctx = ModelContext.at(self.kf, ep.imu, self.cfg.antenna_lever_arm_b_m)
+                res = self.kf.update(ev.kind, t_m, *self.kf.model(ev, ep.ctx.shifted(t_m - ep.imu.t_s)))
                 if res.accepted:
-                    accept = {**accept, (ev.kind, getattr(ev, "coupling", "aiding")): t_m}
-        ep = _Epoch(imu, self.kf.snapshot(), accept, old.extra_Q if old is not None else None)
+                    ep.last_accept = {**ep.last_accept, (ev.kind, getattr(ev, "coupling", "aiding")): t_m}
+            ep.last_key = key[:4]
+        ep.snap = self.kf.snapshot()
         if self.keep_history:
             ep.Phi, ep.P_prior, ep.dx = self.kf.last_Phi, self.kf.P_prior, self.kf.epoch_dx
-        self._epochs[k] = ep
-        self._at = k
 
     def release(self, final: bool = False) -> list[Solution]:
         """Solutions now older than output_delay_s (all of them when final), on
@@ -363,9 +420,5 @@ class FusionEngine:
         return mode, tuple(sorted({k for k, _ in recent}))
 
     def _solution(self, ep: _Epoch) -> Solution:
-        snap = ep.snap
         mode, kinds = self._mode(ep)
-        state = self.kf.snapshot_state(snap)
-        dth, dv = self.kf.corrected(ep.imu.dtheta_b_rad, ep.imu.dvel_b_mps, ep.imu.dt_s, snap.values)
-        return Solution(ep.imu.t_s, state, self.kf.P_enu(snap), mode, snap.n_updates, snap.n_rejected,
-                        snap.last_nis, dth / ep.imu.dt_s, dv / ep.imu.dt_s, kinds)
+        return Solution.of(self.kf, ep.snap, ep.imu, mode, kinds)

@@ -18,10 +18,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 from . import earth
-from .attitude import skew
+from .attitude import cross3, skew
 from .nav_state import NavState
 from .state_layout import StateLayout
 
@@ -58,7 +60,7 @@ class GnssVelocity:
     coupling = "loose"
 
     def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
-        lever_vel_b = np.cross(ctx.omega_nb_b_radps, ctx.lever_arm_b_m)
+        lever_vel_b = cross3(ctx.omega_nb_b_radps, ctx.lever_arm_b_m)
         lever_vel_n = state.C_b_n @ lever_vel_b
         residual = state.vel_enu_mps + lever_vel_n - self.vel_enu_mps
         H = np.zeros((3, layout.dim))
@@ -171,8 +173,14 @@ class ModelContext:
 
 
 def is_finite(meas) -> bool:
-    """True when every numeric field of a measurement is finite."""
+    """True when every numeric field of a measurement is finite (NaN and inf
+    propagate through a sum, so one reduction per array suffices)."""
     for v in vars(meas).values():
-        if isinstance(v, (float, int, np.ndarray)) and not np.all(np.isfinite(v)):
-            return False
+        t = type(v)
+        if t is float or t is int:
+            if not math.isfinite(v):
+                return False
+        elif t is np.ndarray and v.dtype.kind == "f":
+            if not math.isfinite(float(v.sum())):
+                return False
     return True

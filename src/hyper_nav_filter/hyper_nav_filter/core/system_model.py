@@ -62,6 +62,28 @@ class SystemModel:
         for rows, cols, M in const_cols:
             self.G_const[rows, cols] = M
         self.body_noise = body
+        self._fast_arrays(cfg, col)
+
+    def _fast_arrays(self, cfg, m: int) -> None:
+        """The same declarations as dense arrays for the compiled path (core.fast)."""
+        lay = self.layout
+        n = lay.dim
+        self.K = {t: np.zeros((len(COUPLING_TERMS), 3, n)) for t in ("att", "vel")}
+        self.K_used = {t: np.zeros(len(COUPLING_TERMS), dtype=np.bool_) for t in ("att", "vel")}
+        for target, terms in self.couplings.items():
+            for term, K in terms.items():
+                k = COUPLING_TERMS.index(term)
+                self.K[target][k] = K
+                self.K_used[target][k] = True
+        self.G_body = {t: np.zeros((3, m)) for t in ("att", "vel")}
+        for rows, cols, M in self.body_noise:
+            target = next(t for t, r in _TARGET_ROWS.items() if r == rows)
+            self.G_body[target][:, cols] = M
+        roles = {}
+        for role in ("gyro_bias", "accel_bias", "gyro_scale", "accel_scale"):
+            roles[role] = np.array([lay.value_sl(b.name).start for b in lay.value_blocks if b.imu_role == role],
+                                   dtype=np.int64)
+        self.roles = roles
 
     def matrices(self, F9, C_b_x, omega_ib_b_radps, f_b_mps2, omegadot_ib_b_radps2=None):
         """F (n x n), G (n x m) and the noise PSD diagonal qc (m) at one epoch,

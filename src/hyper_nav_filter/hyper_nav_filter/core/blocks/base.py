@@ -100,7 +100,8 @@ class Block:
         return value
 
     # Optional IMU pre-processing (see blocks.lever_arm): a block with
-    # ``preprocess`` returns (velocity-increment correction, new value).
+    # ``preprocess(value, dtheta_c, dvel_c, w_prev, dt, cfg, fast)`` returns
+    # (velocity increment to remove from the raw one, new value).
     preprocess = None
 
 

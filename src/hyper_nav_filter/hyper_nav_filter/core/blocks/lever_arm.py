@@ -20,6 +20,7 @@ import numpy as np
 
 from ..elastic_lever_arm import (TABLE2_FREQ_RADPS, LeverArmCompensator, ModalModel,
                                  free_free_beam_mode_shapes)
+from ..fast import lever as fast_lever
 from ..params import FLOAT, FLOATS, ParamSpec, nonneg, positive
 from .base import Block, BodyCoupling, NoiseInput
 
@@ -82,15 +83,21 @@ class ElasticLeverArm(Block):
     def noise(self, cfg):
         return (NoiseInput("w_lev", np.full(3, cfg.lever_arm_modal_psd), "self", np.vstack([Z3, I3])),)
 
-    def preprocess(self, value, dtheta_c_b_rad, dvel_c_b_mps, w_prev_radps, dt_s, cfg):
+    def preprocess(self, value, dtheta_c_b_rad, dvel_c_b_mps, w_prev_radps, dt_s, cfg, fast: bool = True):
         """Dynamic lever-arm compensation (seed 000 Fig. 3) of one IMU interval:
         step the nominal modes under the measured load and return (the lever-arm
         velocity increment to remove from the raw increment, modes at the end).
         ``dtheta_c``/``dvel_c`` are bias-corrected; ``w_prev`` the corrected mean
-        rate of the previous interval (None at the first)."""
+        rate of the previous interval (None at the first). ``fast``: the compiled
+        form (core.fast.lever), else the reference ``LeverArmCompensator``."""
         m = modal_model(cfg)
         if not np.all(np.isfinite(value)):          # first interval: static deflection
             value = m.equilibrium(dvel_c_b_mps / dt_s)
-        dv_cg, lev1, _, _ = LeverArmCompensator(m).compensate(value, dtheta_c_b_rad, dvel_c_b_mps, dt_s,
-                                                              w_prev_radps)
-        return dvel_c_b_mps - dv_cg, lev1
+        if not fast:
+            dv_cg, lev1, _, _ = LeverArmCompensator(m).compensate(value, dtheta_c_b_rad, dvel_c_b_mps, dt_s,
+                                                                  w_prev_radps)
+            return dvel_c_b_mps - dv_cg, lev1
+        return fast_lever.compensate(np.ascontiguousarray(value), dtheta_c_b_rad, dvel_c_b_mps, float(dt_s),
+                                     np.zeros(3) if w_prev_radps is None else w_prev_radps, w_prev_radps is not None,
+                                     m.Y, m.r0_b_m, m.natural_freq_radps, m.damping_ratio, m.load_gain_kg_per_kg,
+                                     m.deflection_axis_b)

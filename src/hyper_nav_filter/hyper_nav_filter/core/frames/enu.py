@@ -21,12 +21,17 @@ from __future__ import annotations
 import numpy as np
 
 from .. import earth, mechanization
+from ..fast import enu as fast_enu
 from ..attitude import attitude_error_n_rad, rotvec_to_C, skew
 from ..nav_state import NavState
 
 X_LAT, X_LON, X_ALT, X_VEL, X_C, X_VPREV = 0, 1, 2, slice(3, 6), slice(6, 15), slice(15, 18)
 NOMINAL_SIZE = 18
 _I3 = np.eye(3)
+
+
+def _f64(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 class EnuFrame:
@@ -73,6 +78,20 @@ class EnuFrame:
     def bridge(self, x, t_s, omega_b, f_b, dt_s) -> np.ndarray:
         """Propagate over a gap with held corrected rates (no coning/sculling history)."""
         return self.mechanize(x, t_s, omega_b * dt_s, f_b * dt_s, None, None, dt_s)
+
+    # ---- compiled predict (core.fast) -----------------------------------------------------
+    def fast_predict(self, x, t_s, vals, P, imu, prev, sm):
+        """One predict step in compiled form (core.fast.enu): (new nominal vector, P', Phi)."""
+        out = np.empty(NOMINAL_SIZE)
+        r = sm.roles
+        p = imu if prev is None else prev            # fixed argument types: one compiled signature
+        P1, Phi = fast_enu.predict(x, vals, P, _f64(imu.dtheta_b_rad), _f64(imu.dvel_b_mps), float(imu.dt_s),
+                                   _f64(p.dtheta_b_rad), _f64(p.dvel_b_mps), float(p.dt_s), prev is not None,
+                                   r["gyro_bias"], r["accel_bias"], r["gyro_scale"], r["accel_scale"], sm.A,
+                                   sm.K["att"], sm.K["vel"],
+                                   sm.K_used["att"], sm.K_used["vel"], sm.G_const, sm.G_body["att"],
+                                   sm.G_body["vel"], sm.qc, sm.exact, out)
+        return out, P1, Phi
 
     # ---- error model ------------------------------------------------------------------
     def error_dynamics(self, x, t_s, f_b_mps2, omega_ib_b_radps):

@@ -33,11 +33,16 @@ from ..attitude import attitude_error_n_rad, orthonormalize, rotvec_to_C, skew
 from ..lci.frames import OMEGA_IE_RADPS, LaunchFrame
 from ..lci.gravity import gravity_gradient_a, make_gravity
 from ..lci.mechanization import increments_one_plus_previous
+from ..fast import lci as fast_lci
 from ..nav_state import NavState
 
 X_R, X_V, X_C = slice(0, 3), slice(3, 6), slice(6, 15)
 NOMINAL_SIZE = 15
 _I3 = np.eye(3)
+
+
+def _f64(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 class LciFrame:
@@ -48,6 +53,7 @@ class LciFrame:
         self.launch = launch or LaunchFrame(float(initial.lat_rad), float(initial.lon_rad), float(initial.alt_m),
                                             np.deg2rad(cfg.launch_azimuth_deg), float(initial.t_s))
         self.gravity = make_gravity(cfg.lci_gravity, self.launch)
+        self._normal_gravity = cfg.lci_gravity == "normal"
         self._cache_key = None
         self._cache = None
 
@@ -114,6 +120,21 @@ class LciFrame:
 
     def bridge(self, x, t_s, omega_b, f_b, dt_s) -> np.ndarray:
         return self.mechanize(x, t_s, omega_b * dt_s, f_b * dt_s, None, None, dt_s)
+
+    # ---- compiled predict (core.fast) -----------------------------------------------------
+    def fast_predict(self, x, t_s, vals, P, imu, prev, sm):
+        """One predict step in compiled form (core.fast.lci): (new nominal vector, P', Phi)."""
+        out = np.empty(NOMINAL_SIZE)
+        r, L = sm.roles, self.launch
+        p = imu if prev is None else prev            # fixed argument types: one compiled signature
+        P1, Phi = fast_lci.predict(x, float(t_s - L.t0_s), vals, P, _f64(imu.dtheta_b_rad), _f64(imu.dvel_b_mps),
+                                   float(imu.dt_s), _f64(p.dtheta_b_rad), _f64(p.dvel_b_mps), float(p.dt_s),
+                                   prev is not None, r["gyro_bias"],
+                                   r["accel_bias"], r["gyro_scale"], r["accel_scale"], sm.A, sm.K["att"],
+                                   sm.K["vel"], sm.K_used["att"], sm.K_used["vel"], sm.G_const, sm.G_body["att"],
+                                   sm.G_body["vel"], sm.qc, sm.exact, L.R0_a_m, L.spin_axis_a, L.C_t_a,
+                                   self._normal_gravity, out)
+        return out, P1, Phi
 
     # ---- error model ------------------------------------------------------------------
     def error_dynamics(self, x, t_s, f_b_mps2, omega_ib_b_radps):

@@ -1,0 +1,80 @@
+"""The frame-independent parts of one compiled predict step: IMU error
+correction from the blocks' values, F and G from the frame's 9 x 9 core and
+the blocks' declared couplings and noises (``core.system_model`` as data),
+Phi, Q and the covariance propagation (``system_model.discretize``)."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .linalg import expm_taylor, skew
+
+
+@njit(cache=True)
+def corrected(dth, dv, dt, vals, gb, ab, sg, sa):
+    """``ErrorStateKF.corrected``: biases (start indices gb, ab into vals)
+    removed, then the scale factors (sg, sa) divided out."""
+    th = dth.copy()
+    v = dv.copy()
+    for i in gb:
+        th = th - vals[i:i + 3] * dt
+    for i in ab:
+        v = v - vals[i:i + 3] * dt
+    for i in sg:
+        th = th / (1.0 + vals[i:i + 3])
+    for i in sa:
+        v = v / (1.0 + vals[i:i + 3])
+    return th, v
+
+
+@njit(cache=True)
+def couple(F, G, C, w, f, wdot, Katt, Kvel, used_att, used_vel, GattM, GvelM):
+    """Add the blocks' body couplings C K(w, f, wdot) to the attitude and
+    velocity rows of F and the body noises C M to the rows of G."""
+    W = skew(w)
+    bases = (np.eye(3), np.diag(w), np.diag(f), W, skew(wdot), W @ W)
+    n = F.shape[0]
+    for rows, K, used in ((0, Katt, used_att), (3, Kvel, used_vel)):
+        B = np.zeros((3, n))
+        any_term = False
+        for k in range(6):
+            if used[k]:
+                B += bases[k] @ K[k]
+                any_term = True
+        if any_term:
+            F[rows:rows + 3, :] += C @ B
+    G[0:3, :] += C @ GattM
+    G[3:6, :] += C @ GvelM
+
+
+@njit(cache=True)
+def propagate_covariance(F, G, qc, P, dt, exact):
+    """Phi = I + F dt + (F dt)^2 / 2 (or expm) and
+    P' = Phi (P + Qh) Phi^T + Qh with Qh = G Qc G^T dt / 2, i.e. the
+    trapezoidal Q = (Phi GQG Phi^T + GQG) dt / 2 of ``system_model.discretize``
+    added to Phi P Phi^T with two products fewer. Returns (P', Phi)."""
+    n = F.shape[0]
+    Fdt = F * dt
+    if exact:
+        Phi = expm_taylor(Fdt)
+    else:
+        Phi = np.eye(n) + Fdt + 0.5 * (Fdt @ Fdt)
+    Gq = G * qc
+    Qh = (Gq @ G.T) * (0.5 * dt)
+    P1 = Phi @ (P + Qh) @ Phi.T + Qh
+    return 0.5 * (P1 + P1.T), Phi
+
+
+@njit(cache=True)
+def imu_terms(dth, dv, dt, pdth, pdv, pdt, has_prev, vals, gb, ab, sg, sa):
+    """The corrected increments of this and the previous interval (zeros at
+    the first step), the body rate, specific force and angular acceleration
+    of this interval (zero acceleration at the first step)."""
+    th, v = corrected(dth, dv, dt, vals, gb, ab, sg, sa)
+    if has_prev:
+        th_p, v_p = corrected(pdth, pdv, pdt, vals, gb, ab, sg, sa)
+        wdot = (th / dt - th_p / pdt) / dt
+    else:
+        th_p, v_p = np.zeros(3), np.zeros(3)
+        wdot = np.zeros(3)
+    return th, v, th_p, v_p, th / dt, v / dt, wdot
