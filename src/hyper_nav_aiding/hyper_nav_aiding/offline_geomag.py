@@ -122,9 +122,11 @@ class AidedFlight:
                 if self._pending is not None:
                     self.posterior[self._pending] = sol
                     self._pending = None
-                if abs(sol.t_s - round(sol.t_s)) < 1e-6:
-                    self.solutions[float(round(sol.t_s))] = sol
-                    self._pending = float(round(sol.t_s))
+                ts = float(sol.t_s)
+                whole = float(int(ts + 0.5))
+                if abs(ts - whole) < 1e-6:
+                    self.solutions[whole] = sol
+                    self._pending = whole
             if aiding is None or mag_t_s is None:
                 continue
             while mi < len(mag_t_s) and mag_t_s[mi] <= tk + 1e-9:
