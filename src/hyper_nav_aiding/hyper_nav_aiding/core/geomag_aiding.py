@@ -18,7 +18,8 @@ solution outside the map, or a measured field that cannot be this map's
 * ``rejected_field_mismatch``: |F_map(r^) - m| beyond 10 sigma of what the
   map error, the sensor noise and the navigation covariance allow (a map of
   another epoch or place, a magnetometer fault)
-* ``no_fix_<reason>`` (the matcher declined, e.g. ICCP contour outside its area)
+* ``no_fix_<code>`` (the matcher declined, e.g. ``no_fix_contour_off_area``:
+  an ICCP contour point outside its matching area or the map)
 * ``fixes``.
 """
 from __future__ import annotations
@@ -37,6 +38,7 @@ from .matching import MagSample, MatchResult, NavPoint
 from .siman import Siman
 
 MISMATCH_SIGMA = 10.0
+COUNTED_CODES = ("no_map", "off_map", "rejected_field_mismatch")
 
 
 def make_matcher(cfg: GeomagConfig, gmap: GeomagMap):
@@ -91,13 +93,16 @@ class GeomagAiding:
         self.compute_cpu_s += time.thread_time() - c0
         if res is not None:
             res.compute_time_s = dt
-            self.counters["fixes" if res.valid else f"no_fix_{res.reason.replace(' ', '_')}"] += 1
+            if res.valid:
+                self.counters["fixes"] += 1
+            elif res.code not in COUNTED_CODES:                  # those are counted where they arise
+                self.counters[f"no_fix_{res.code or 'other'}"] += 1
             self.last = res
         return res
 
     def _invalid(self, t_s: float, reason: str, counter: str) -> MatchResult:
         self.counters[counter] += 1
-        return MatchResult(t_s, self.cfg.algorithm, False, reason)
+        return MatchResult(t_s, self.cfg.algorithm, False, reason, code=counter)
 
     def _process(self, sample: MagSample, nav: NavPoint) -> MatchResult | None:
         self.counters["mag_samples"] += 1
@@ -111,8 +116,7 @@ class GeomagAiding:
             self.counters["rejected_nav_nan"] += 1
             return None
         if self.map is None:
-            self.counters["no_map"] += 1
-            return MatchResult(sample.t_s, self.cfg.algorithm, False, f"no map: {self.map_problem}")
+            return self._invalid(sample.t_s, f"no map: {self.map_problem}", "no_map")
         try:
             f, g = self.map.total_and_gradient(nav.lat_rad, nav.lon_rad, nav.alt_m)
         except OffMapError as exc:

@@ -14,9 +14,12 @@ Choices the paper leaves open (ours): the closest contour point is found by
 Newton steps along the gradient, a <- a - g (F(a) - m) / |g|^2 (three steps;
 for a contour whose radius of curvature is thousands of km, as the WMM's at
 25 km, this is the closest point to within millimetres, and it replaces the
-contour tracing that makes the paper's ICCP slow). The contour must lie
-inside the matching area (``area_cells`` refined cells, centred on the INS
-track) or the sample has no contour point and the sequence gives no fix.
+contour tracing that makes the paper's ICCP slow). The contour point
+must lie inside the matching area (``area_cells`` refined cells, centred on
+the INS track) and on the map, or the sequence gives no fix; an area that
+reaches over the map's edge is searched where it is on the map (the seed 003
+return leg runs 2-15 km from the 109 E edge, inside the 300-cell area's
+half-width of 15 km).
 Table 2's "critical distance" d_c is read as the stopping threshold
 epsilon = d_c^2 on J (in m^2). T is fitted from the original X each
 iteration (Procrustes, ``matching.rigid_fit_2d``).
@@ -30,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geomag_map import GeomagMap, OffMapError
+from .geomag_map import GeomagMap
 from .matching import (LocalFrame, MagSample, MatchResult, NavPoint, along_across_sigma, rigid_fit_2d,
                        sequence_cov)
 
@@ -70,10 +73,13 @@ class Iccp:
         alt = np.full(len(m), self.map.spec.alt_m)
         for _ in range(NEWTON_STEPS):
             lat, lon = frame.to_geodetic(A)
+            if not np.all(self.map.contains(lat, lon)):
+                return A, np.zeros(len(m), bool)
             f, g = self.map.total_and_gradient(lat, lon, alt)
             gh = g[:, :2]
             A = A - gh * ((f - m) / np.sum(gh**2, axis=1))[:, None]
-        inside = np.all(np.abs(A - centre) <= half_m, axis=1)
+        lat, lon = frame.to_geodetic(A)
+        inside = np.all(np.abs(A - centre) <= half_m, axis=1) & self.map.contains(lat, lon)
         return A, inside
 
     def _match(self, seq, t_s: float) -> MatchResult:
@@ -85,18 +91,14 @@ class Iccp:
         half_cells = (self.p.area_cells - 1) / 2.0
         half_m = np.array([half_cells * step * frame.m_per_rad_e, half_cells * step * frame.m_per_rad_n])
         centre = X.mean(axis=0)
-        corners = frame.to_geodetic(np.array([centre - half_m, centre + half_m]))
-        if not np.all(self.map.contains(corners[0], corners[1])):
-            raise OffMapError(f"ICCP matching area around {np.rad2deg(last.lat_rad):.4f} N "
-                              f"{np.rad2deg(last.lon_rad):.4f} E leaves the map")
         Xt = X
         J = np.inf
         it = 0
         for it in range(1, self.p.max_iterations + 1):
             A, inside = self._closest_contour_points(frame, Xt, m, half_m, centre)
             if not np.all(inside):
-                return MatchResult(t_s, self.name, False, "contour outside the matching area",
-                                   iterations=it, sequence_length=len(m))
+                return MatchResult(t_s, self.name, False, "contour point outside the matching area or the map",
+                                   code="contour_off_area", iterations=it, sequence_length=len(m))
             R, t = rigid_fit_2d(X, A)
             Xt = X @ R.T + t
             J = float(np.sum((A - Xt) ** 2))

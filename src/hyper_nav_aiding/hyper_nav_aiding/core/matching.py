@@ -46,7 +46,7 @@ class MatchResult:
     t_s: float
     algorithm: str
     valid: bool
-    reason: str = ""
+    reason: str = ""            # human-readable, for the log and MatchQuality.reason
     lat_rad: float = float("nan")
     lon_rad: float = float("nan")
     cov_en_m2: np.ndarray = field(default_factory=lambda: np.full((2, 2), np.nan))
@@ -60,6 +60,7 @@ class MatchResult:
     across_gradient_sigma_m: float = float("nan")
     gradient_nt_per_km: float = float("nan")
     compute_time_s: float = 0.0
+    code: str = ""              # short category for the counters ("off_map", "contour_off_area", ...)
 
 
 class LocalFrame:
