@@ -22,14 +22,14 @@ from hyper_nav_sim.report import delivery_check, errors, load_run, states_from_m
 
 pytestmark = pytest.mark.graph
 
-DURATION_S, START_S = 30.0, 5.0
+DURATION_S, START_S = 24.0, 4.0
 MAP = {"lat_min_deg": 40.0, "lat_max_deg": 41.0, "lon_min_deg": 111.0, "lon_max_deg": 112.0,
        "grid_step_deg": 0.05, "refine_factor": 40}
 
 
 def test_geomag_fixes_reach_the_fusion_filter_over_dds(tmp_path):
     overrides = {
-        "duration_s": DURATION_S, "graph.real_time_factor": 4.0,
+        "duration_s": DURATION_S, "flight.duration_s": DURATION_S, "graph.real_time_factor": 4.0,
         "geomag.start_s": START_S, "geomag.map": {**GeomagConfig().map.__dict__, "alt_m": 26000.0, **MAP},
         "geomag.map_cache_dir": str(tmp_path / "maps"), "geomag.field_sigma_nT": 0.1,
         "magnetometer.map_error_rms_nT": 0.1,
