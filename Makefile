@@ -6,13 +6,14 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed002 seed004
+.PHONY: setup run test clean bench help train-lekf repro-seed002 seed003 seed004
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
 	@echo "             (RUN_ARGS=\"--set duration_s=60\" passes more run_graph arguments; exits 1 if the report fails)"
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
+	@echo "make seed003 - reproduce seed 003 Table 3 / Figs. 6-9 with the PCRB (results/seed003; SEEDS=20 WORKERS=1)"
 	@echo "make seed004 - reproduce seed 004 Tables 4-5 (virtual GNSS under lock loss) into bags/seed004_tables"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
 	@echo "make train-lekf    - fly the seed 002 data set and train the L-EKF (writes the shipped parameter set)"
@@ -42,6 +43,11 @@ repro-seed002: setup
 
 seed004: setup
 	@$(ENV) ros2run hyper_nav_aiding reproduce_seed004 --out bags/seed004_tables $(ARGS)
+
+SEEDS ?= 20
+WORKERS ?= 1
+seed003: setup
+	@$(ENV) ros2run hyper_nav_aiding reproduce_seed003 --seeds $(SEEDS) --workers $(WORKERS) --out results/seed003
 
 clean:
 	rm -rf build install log

@@ -16,10 +16,11 @@ setup(
     maintainer_email="maintainers@hyper-nav.org",
     description="Navigation aiding: geomagnetic matching, virtual pseudoranges, lever-arm learning.",
     license="Apache-2.0",
-    entry_points={
-        "console_scripts": [
-            "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
-            "reproduce_seed004 = hyper_nav_aiding.reproduce_seed004:main",
-        ],
-    },
+    entry_points={"console_scripts": [
+        "geomag_node = hyper_nav_aiding.nodes.geomag_node:main",
+        "reproduce_seed003 = hyper_nav_aiding.reproduce_seed003:main",
+        "build_geomag_map = hyper_nav_aiding.build_geomag_map:main",
+        "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
+        "reproduce_seed004 = hyper_nav_aiding.reproduce_seed004:main",
+    ]},
 )

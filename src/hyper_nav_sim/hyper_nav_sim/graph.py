@@ -66,11 +66,17 @@ SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 RAW_GNSS_TOPICS = ["gnss/raw", "gnss/ephemeris"]
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
-# aiding nodes started when their scenario block says enabled: node -> (block, inputs(block) -> topics
-# whose publishers wait for it; nav/state is not among them: the fusion node waits for one subscriber
-# count on all its outputs, and no nav/state flows before the IMU, whose publisher waits for the node)
-AIDING_NODES = {"virtual_gnss": ("virtual_gnss", lambda b: {"gnss/raw", "gnss/ephemeris", "imu/data_raw"} | (
-    {"gnss/fix"} if b.get("position_source") == "alpha_beta" else set()))}
+# aiding nodes (hyper_nav_aiding): node -> (scenario block, inputs(block) -> the sensor topics it
+# takes, whose publishers wait for it; nav/state is not among them: the fusion node waits for one
+# subscriber count on all its outputs, and no nav/state flows before the IMU, whose publisher waits
+# for the node). A node starts when its block says `enabled: true` or when a fusion source takes its
+# output topic (AIDING_OUTPUTS).
+AIDING_NODES = {
+    "virtual_gnss": ("virtual_gnss", lambda b: {"gnss/raw", "gnss/ephemeris", "imu/data_raw"} | (
+        {"gnss/fix"} if b.get("position_source") == "alpha_beta" else set())),
+    "geomag": ("geomag", lambda b: {"imu/mag"}),
+}
+AIDING_OUTPUTS = {"geomag": "geomag/fix"}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
 TRACKER_OUTPUTS = ["track/fix", "track/vel"]     # tracker_node: starts with a radar block (seed 002)
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
@@ -79,7 +85,7 @@ EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim"
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
                "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
-               "virtual_gnss": ("hyper_nav_aiding", "virtual_gnss_node"),
+               "virtual_gnss": ("hyper_nav_aiding", "virtual_gnss_node"), "geomag": ("hyper_nav_aiding", "geomag_node"),
                "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
 # ROS node names where they differ from the graph's process names
 ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
@@ -130,6 +136,20 @@ def fusion_inputs(sc: Scenario) -> set[str]:
     from hyper_nav_filter.sources import make_sources
     return {i.topic.lstrip("/") for src in make_sources(sc.filter_source_specs(), sc.filter_config())
             for i in src.inputs()}
+
+
+def flat_parameters(block: dict, prefix: str, skip=()) -> dict:
+    """A scenario block as dotted ROS parameters ({'geomag.magcom.area_cells': 25}):
+    the node declares and validates them (lists stay lists)."""
+    out = {}
+    for k, v in block.items():
+        if k in skip:
+            continue
+        if isinstance(v, dict):
+            out.update(flat_parameters(v, f"{prefix}.{k}"))
+        else:
+            out[f"{prefix}.{k}"] = v
+    return out
 
 
 def fusion_parameters(sc: Scenario) -> dict:
@@ -197,6 +217,7 @@ class Graph:
         self.workdir = pathlib.Path(self._tmp.name)
         self.scenario = apply_overrides(base, overrides, self.workdir)
         self.record = pathlib.Path(record) if record else None
+        self._fusion_inputs = fusion_inputs(self.scenario)
         if nodes is None:
             if self.replay:
                 nodes = ("player", "fusion")
@@ -204,8 +225,7 @@ class Graph:
                 nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
                                                    if block in self.scenario.data) + ("fusion",)
                 nodes += ("tracker",) if "radar" in self.scenario.data else ()
-                nodes += tuple(n for n, (block, _) in AIDING_NODES.items()
-                               if (self.scenario.data.get(block) or {}).get("enabled", False))
+            nodes += tuple(n for n in AIDING_NODES if self._aiding_wanted(n))
         self.nodes = tuple(nodes)
         for name in self.nodes:
             executable(name)                     # unknown names fail here, with a suggestion
@@ -226,11 +246,15 @@ class Graph:
         self.interrupted = None                   # signal name when stopped by SIGINT/SIGTERM
         self.t_start = None
         self._replay_topics = self._bag_topics() if self.replay else []
-        self._fusion_inputs = fusion_inputs(self.scenario)
         if foxglove is not None:
             self.nodes += ("foxglove",)
             self.node_params = {**self.node_params, "foxglove": {"qos_depth": int(self.scenario["graph.qos_depth"]),
                                                                  **foxglove, **self.node_params.get("foxglove", {})}}
+
+    def _aiding_wanted(self, name: str) -> bool:
+        """An aiding node runs when its scenario block enables it or a fusion source takes its output."""
+        block = self.scenario.data.get(AIDING_NODES[name][0]) or {}
+        return bool(block.get("enabled", False)) or AIDING_OUTPUTS.get(name) in self._fusion_inputs
 
     # ---- parameters ------------------------------------------------------------
     def _recorded(self, topic: str) -> bool:
@@ -312,6 +336,10 @@ class Graph:
             from hyper_nav_aiding.parameters import from_scenario
             p = from_scenario(self.scenario)
             p["min_output_subscribers"] = self._subscribers([p["virtual_gnss.topic"]])
+        elif name == "geomag":
+            p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
+            p.update({"min_subscribers": self._subscribers([AIDING_OUTPUTS["geomag"]]),
+                      "qos.depth": int(self.scenario["graph.qos_depth"])})
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}

@@ -110,6 +110,29 @@ class HorizontalFix:
         return residual, H, self.cov_en_m2
 
 
+@dataclass(frozen=True)
+class PositionFix:
+    """3-D position fix of an aiding source (no antenna lever arm): latitude,
+    longitude, altitude with a full ENU covariance (m^2), which may be
+    degenerate, e.g. the geomagnetic pseudo-fix that informs one direction
+    only (hyper_nav_aiding ``ekf_intensity``: the scalar update along the 3-D
+    field gradient, seed 003 eq. 11)."""
+    t_s: float
+    lat_rad: float
+    lon_rad: float
+    alt_m: float
+    cov_enu_m2: np.ndarray
+    kind: str = "position_fix"
+    coupling = "aiding"
+
+    def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
+        d = earth.position_error_enu_m(state.lat_rad, state.lon_rad, state.alt_m,
+                                       self.lat_rad, self.lon_rad, self.alt_m)
+        H = np.zeros((3, layout.dim))
+        H[:, layout.sl("pos")] = np.eye(3)
+        return d + state.vel_enu_mps * ctx.dt_to_meas_s, H, self.cov_enu_m2
+
+
 class ModelContext:
     """Quantities a model needs besides the state: the antenna lever arm
     (body FLU, m), the body rate relative to ENU (rad/s, body axes; computed

@@ -1,7 +1,7 @@
 """Declared fusion sources: converters from ROS messages to the core's
 measurements, IMU samples and model updates, registered by type name
 (``base`` explains the table). Types: imu, gnss_fix, gnss_vel, gnss_raw,
-baro_height, horizontal_fix, model_update."""
+baro_height, horizontal_fix, position_fix, model_update."""
 from __future__ import annotations
 
 from . import aiding, gnss, imu  # noqa: F401  (registration)

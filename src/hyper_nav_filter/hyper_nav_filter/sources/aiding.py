@@ -9,6 +9,10 @@
 * ``horizontal_fix``: sensor_msgs/NavSatFix -> ``HorizontalFix`` (latitude,
   longitude and the east/north 2 x 2 block of the ENU covariance): position
   fixes of map-matching aids (geomagnetic matching, seed 003 eqs. 20-26).
+* ``position_fix``: sensor_msgs/NavSatFix -> ``PositionFix`` (latitude,
+  longitude, altitude and the full 3 x 3 ENU covariance, which may inform
+  one direction only): 3-D fixes of aiding sources, e.g. the geomagnetic
+  pseudo-fix along the 3-D field gradient (hyper_nav_aiding, seed 003).
 * ``model_update``: hyper_nav_msgs/ModelUpdate -> a time-stamped model update
   of the filter (``core.model_update``), e.g. re-estimated lever-arm modes.
 """
@@ -18,7 +22,7 @@ import numpy as np
 
 from ..conversions import stamp_to_s
 from ..core.atmosphere import pressure_altitude_m, pressure_height_gradient_pa_per_m
-from ..core.measurements import BaroHeight, HorizontalFix
+from ..core.measurements import BaroHeight, HorizontalFix, PositionFix
 from ..core.model_update import ModelUpdate
 from ..core.params import FLOAT, ConfigError, nonneg, positive
 from .base import SourceType, navsatfix_check, register
@@ -69,6 +73,24 @@ class HorizontalFixSource(SourceType):
         if not (np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (cov + cov.T)) > 0)):
             return "bad_covariance"
         meas = HorizontalFix(stamp_to_s(msg.header.stamp), np.deg2rad(msg.latitude), np.deg2rad(msg.longitude), cov)
+        return self._queued(engine.add_measurement(meas))
+
+
+@register
+class PositionFixSource(SourceType):
+    TYPE = "position_fix"
+    MSG_TYPES = ("sensor_msgs/msg/NavSatFix",)
+    DESCRIPTION = "3-D position fix of an aiding source (full ENU covariance, may be degenerate)"
+
+    def convert(self, role, msg, engine):
+        reason = navsatfix_check(msg)
+        if reason is not None:
+            return reason
+        cov = np.asarray(msg.position_covariance, float).reshape(3, 3)
+        if not (np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (cov + cov.T)) > 0)):
+            return "bad_covariance"
+        meas = PositionFix(stamp_to_s(msg.header.stamp), np.deg2rad(msg.latitude), np.deg2rad(msg.longitude),
+                           float(msg.altitude), 0.5 * (cov + cov.T))
         return self._queued(engine.add_measurement(meas))
 
 

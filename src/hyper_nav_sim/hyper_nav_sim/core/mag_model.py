@@ -16,6 +16,10 @@ Measurement (body FLU, nT)::
   main-field direction, i.e. a total-intensity error, which is what the
   matching algorithms of seed 003 compare (they quote the levels as
   "+-" ranges; here the level is the RMS).
+  ``map_error_model: white_uniform`` draws it instead independently per
+  sample, uniform in [-sqrt(3) rms, sqrt(3) rms] (the other reading of the
+  paper's "+-level" ranges: a per-sample difference, no spatial memory),
+  from its own generator seeded by ``map_error_seed``.
 * ``h_hard``: hard iron, a constant body-frame bias [nT].
 * ``S_soft``: soft iron, a 3x3 matrix (identity = none).
 
@@ -39,6 +43,7 @@ from hyper_nav_filter.core import earth
 
 from . import wmm
 from .fields import unknown_field
+MAP_ERROR_MODELS = ("correlated", "white_uniform")
 
 
 def wmm_field_enu_nT(lat_rad, lon_rad, alt_m, decimal_year):
@@ -73,7 +78,7 @@ class MapErrorField:
 
 
 CONFIG_FIELDS = frozenset({"noise_nT", "hard_iron_b_nT", "soft_iron", "map_error_rms_nT", "map_error_corr_length_m",
-                           "map_error_n_waves", "map_error_seed"})
+                           "map_error_n_waves", "map_error_seed", "map_error_model"})
 
 
 @dataclass(frozen=True)
@@ -85,6 +90,7 @@ class MagnetometerErrors:
     map_error_corr_length_m: float = 20000.0
     map_error_n_waves: int = 256
     map_error_seed: int = 0
+    map_error_model: str = "correlated"        # or "white_uniform"
 
     def __post_init__(self):
         if self.hard_iron_b_nT is None:
@@ -96,7 +102,8 @@ class MagnetometerErrors:
     def from_config(cls, d: dict | None, prefix: str = "magnetometer") -> "MagnetometerErrors":
         """From the ``magnetometer:`` block; fields (all optional): noise_nT,
         hard_iron_b_nT [3], soft_iron [3x3, dimensionless], map_error_rms_nT,
-        map_error_corr_length_m, map_error_n_waves, map_error_seed; rate_hz
+        map_error_corr_length_m, map_error_n_waves, map_error_seed,
+        map_error_model (``correlated`` | ``white_uniform``); rate_hz,
         epoch_decimal_year and lever_arm_b_m are allowed and ignored. ValueError names a bad field."""
         d = {} if d is None else d
         if not isinstance(d, dict):
@@ -128,6 +135,9 @@ class MagnetometerErrors:
         for k in ("map_error_n_waves", "map_error_seed"):
             if k in d and not (isinstance(d[k], int) and not isinstance(d[k], bool)):
                 raise ValueError(f"{prefix}.{k}: expected an integer, got {d[k]!r}")
+        model = d.get("map_error_model", "correlated")
+        if model not in MAP_ERROR_MODELS:
+            raise ValueError(f"{prefix}.map_error_model: expected one of {list(MAP_ERROR_MODELS)}, got {model!r}")
         n_waves = d.get("map_error_n_waves", 256)
         if n_waves < 1:
             raise ValueError(f"{prefix}.map_error_n_waves: must be >= 1, got {n_waves}")
@@ -136,10 +146,12 @@ class MagnetometerErrors:
                    soft_iron=arr("soft_iron", np.eye(3).tolist(), (3, 3)),
                    map_error_rms_nT=float(num("map_error_rms_nT", 0.0)),
                    map_error_corr_length_m=float(num("map_error_corr_length_m", 20000.0, positive=True)),
-                   map_error_n_waves=int(n_waves), map_error_seed=int(d.get("map_error_seed", 0)))
+                   map_error_n_waves=int(n_waves), map_error_seed=int(d.get("map_error_seed", 0)),
+                   map_error_model=model)
 
     def map_error_field(self) -> MapErrorField | None:
-        if self.map_error_rms_nT <= 0.0:
+        """The correlated map error field (None when off or white)."""
+        if self.map_error_rms_nT <= 0.0 or self.map_error_model != "correlated":
             return None
         return MapErrorField(self.map_error_rms_nT, self.map_error_corr_length_m,
                              self.map_error_n_waves, self.map_error_seed)
@@ -160,9 +172,15 @@ def simulate_magnetometer_T(traj, t_s, decimal_year, noise_nT, rng, errors: Magn
     output equals the WMM-plus-noise model, with the same random draws."""
     tr = traj.truth(t_s)
     mf = errors.map_error_field() if errors is not None else None
+    white = None
+    if errors is not None and errors.map_error_model == "white_uniform" and errors.map_error_rms_nT > 0.0:
+        a = np.sqrt(3.0) * errors.map_error_rms_nT
+        white = np.random.default_rng(errors.map_error_seed).uniform(-a, a, len(t_s))
     out = np.empty((len(t_s), 3))
     for k in range(len(t_s)):
         b_n = true_field_enu_nT(tr.lat_rad[k], tr.lon_rad[k], tr.alt_m[k], decimal_year, mf)
+        if white is not None:
+            b_n = b_n * (1.0 + white[k] / np.linalg.norm(b_n))
         out[k] = tr.C_b_n[k].T @ b_n
     if errors is not None:
         out = out @ errors.soft_iron.T + errors.hard_iron_b_nT

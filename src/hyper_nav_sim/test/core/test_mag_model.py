@@ -83,3 +83,23 @@ def test_bad_config_field_is_named(d, message):
     with pytest.raises(ValueError) as exc:
         mm.MagnetometerErrors.from_config(d)
     assert message in str(exc.value)
+
+
+def test_white_uniform_map_error_is_per_sample_and_bounded(flight):
+    """The other reading of seed 003's "+-level": independent per sample,
+    uniform in [-sqrt(3) rms, sqrt(3) rms], along the field (a total-intensity
+    error); the same draws for the same seed."""
+    sc, traj, _ = flight
+    t = imu_epochs(300.0, 1.0)
+    e = mm.MagnetometerErrors.from_config({"map_error_rms_nT": 2.0, "map_error_model": "white_uniform",
+                                           "map_error_seed": 5})
+    got = mm.simulate_magnetometer_T(traj, t, 2025.5, 0.0, np.random.default_rng(0), e)
+    clean = mm.simulate_magnetometer_T(traj, t, 2025.5, 0.0, np.random.default_rng(0))
+    d = (np.linalg.norm(got, axis=1) - np.linalg.norm(clean, axis=1)) * 1e9
+    assert np.max(np.abs(d)) <= np.sqrt(3.0) * 2.0 + 1e-6
+    assert np.std(d) == pytest.approx(2.0, rel=0.15)
+    assert abs(np.corrcoef(d[:-1], d[1:])[0, 1]) < 0.2                      # no memory
+    again = mm.simulate_magnetometer_T(traj, t, 2025.5, 0.0, np.random.default_rng(0), e)
+    np.testing.assert_array_equal(got, again)
+    with pytest.raises(ValueError, match="magnetometer.map_error_model"):
+        mm.MagnetometerErrors.from_config({"map_error_model": "pink"})

@@ -1,0 +1,160 @@
+"""The geomagnetic node over real DDS: fixes from a good map, no fix (counted
+on /diagnostics) when the solution leaves the map, for a NaN sample and
+with a mismatched map file, and the node keeps running in every case."""
+import os
+import pathlib
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+import yaml
+from ament_index_python.packages import get_package_prefix
+from diagnostic_msgs.msg import DiagnosticArray
+from hyper_nav_msgs.msg import MatchQuality, NavState
+from sensor_msgs.msg import MagneticField, NavSatFix
+
+from hyper_nav_aiding.core.geomag_config import GeomagConfig
+from hyper_nav_aiding.core.geomag_map import GeomagMap, MapSpec
+from hyper_nav_aiding.core.matching import LocalFrame
+from hyper_nav_sim.testing import TopicCollector
+
+SPEC = MapSpec(lat_min_deg=44.0, lat_max_deg=44.5, lon_min_deg=110.0, lon_max_deg=110.5, grid_step_deg=0.05,
+               refine_factor=40, alt_m=26000.0)
+OFFSET_N_M = 300.0            # the solution is 300 m north of the truth
+OFF_MAP_S = (6.0, 7.0)        # the solution jumps off the map for these samples
+
+
+def _stamp(msg, t):
+    msg.header.stamp.sec, msg.header.stamp.nanosec = int(t), int(round((t % 1) * 1e9))
+    return msg
+
+
+def _start(tmp, ns, cfg: GeomagConfig, domain_id):
+    params = tmp / f"{ns}.params.yaml"
+    params.write_text(yaml.safe_dump({"/**": {"ros__parameters": cfg.flat()}}))
+    exe = pathlib.Path(get_package_prefix("hyper_nav_aiding")) / "lib" / "hyper_nav_aiding" / "geomag_node"
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), PYTHONUNBUFFERED="1")
+    log = open(tmp / f"{ns}.log", "w")
+    return subprocess.Popen([str(exe), "--ros-args", "--params-file", str(params), "-r", f"__ns:=/{ns}"],
+                            env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _values(msgs, ns):
+    out = {}
+    for arr in msgs["/diagnostics"]:
+        for st in arr.status:
+            if st.hardware_id == "geomag" and st.name.endswith("geomag") and any(
+                    kv.key == "algorithm" for kv in st.values):
+                out = {kv.key: kv.value for kv in st.values}
+                out["_ns"] = ns
+    return out
+
+
+@pytest.mark.graph
+def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
+    domain_id = int(os.environ.get("ROS_DOMAIN_ID", "0")) or 77
+    gmap = GeomagMap.build(SPEC)
+    map_file = gmap.save(tmp_path / "map.npz")
+    base = {"algorithm": "EKF", "start_s": 0.0, "field_sigma_nT": 0.5, "map_file": str(map_file),
+            "map": {k: getattr(SPEC, k) for k in SPEC.__dataclass_fields__}, "ekf": {"map_error_corr_length_m": 0.0}}
+    good = GeomagConfig.from_dict(base)
+    bad = GeomagConfig.from_dict({**base, "map": {**base["map"], "epoch_decimal_year": 2026.0}})
+    procs = {"good": _start(tmp_path, "good", good, domain_id), "bad": _start(tmp_path, "bad", bad, domain_id)}
+    topics = {"/diagnostics": DiagnosticArray}
+    for ns in procs:
+        topics[f"/{ns}/geomag/fix"] = NavSatFix
+        topics[f"/{ns}/geomag/quality"] = MatchQuality
+    try:
+        with TopicCollector(topics, domain_id=domain_id) as c:
+            pubs = {ns: (c.publisher(NavState, f"/{ns}/nav/state"), c.publisher(MagneticField, f"/{ns}/imu/mag"))
+                    for ns in procs}
+            deadline = time.monotonic() + 30.0
+            while any(p.get_subscription_count() < 1 for pp in pubs.values() for p in pp):
+                assert time.monotonic() < deadline, (tmp_path / "good.log").read_text()
+                assert all(p.poll() is None for p in procs.values())
+                time.sleep(0.1)
+            # a track north at 2 km/s from 44.1 N 110.2 E; the solution is OFFSET_N_M north of it
+            frame = LocalFrame(np.deg2rad(44.1), np.deg2rad(110.2), 26000.0)
+            truth = {}
+            for k in range(0, 121):
+                t = 0.1 * k
+                true_en = np.array([0.0, 2000.0 * t])
+                nav_en = true_en + [0.0, OFFSET_N_M]
+                lat, lon = frame.to_geodetic(nav_en)
+                if OFF_MAP_S[0] - 0.5 < t < OFF_MAP_S[1] + 0.5:
+                    lat = np.deg2rad(44.7)                      # off the map (north of 44.5 N)
+                nav = _stamp(NavState(), t)
+                nav.lat_rad, nav.lon_rad, nav.alt_m = float(lat), float(lon), 26000.0
+                nav.vel_enu_mps = [0.0, 2000.0, 0.0]
+                nav.state_blocks, nav.state_dim = ["att:3", "vel:3", "pos:3"], 9
+                P = np.eye(9)
+                P[6:9, 6:9] = np.diag([500.0**2, 500.0**2, 4.0])
+                nav.covariance = P.ravel().tolist()
+                for pn, _ in pubs.values():
+                    pn.publish(nav)
+                if k % 10 == 0 and k > 0:
+                    tl, tlo = frame.to_geodetic(true_en)
+                    f = float(gmap.total_nT(tl, tlo, 26000.0))
+                    truth[round(t)] = (float(tl), float(tlo))
+                    m = _stamp(MagneticField(), t)
+                    u = np.array([0.1, 0.4, -0.9]) / np.linalg.norm([0.1, 0.4, -0.9])
+                    m.magnetic_field.x, m.magnetic_field.y, m.magnetic_field.z = (u * f * 1e-9).tolist()
+                    for _, pm in pubs.values():
+                        pm.publish(m)
+                    if k == 90:
+                        nan = _stamp(MagneticField(), t + 0.5)
+                        nan.magnetic_field.x = float("nan")
+                        for _, pm in pubs.values():
+                            pm.publish(nan)
+                time.sleep(0.005)
+            n_mag = 12                                          # t = 1 ... 12 s (plus the NaN one)
+            ok = c.wait_for(lambda m: len(m["/good/geomag/quality"]) >= n_mag and len(m["/bad/geomag/quality"])
+                            >= n_mag, 30.0)
+            assert ok, (tmp_path / "good.log").read_text()[-3000:] + (tmp_path / "bad.log").read_text()[-3000:]
+            time.sleep(1.5)                                     # one more /diagnostics period
+            assert all(p.poll() is None for p in procs.values()), "a geomag node exited"
+            msgs = c.messages
+        # good map: a fix for every in-map sample; the along-gradient error is gone
+        fixes = msgs["/good/geomag/fix"]
+        q_good = msgs["/good/geomag/quality"]
+        off = [q for q in q_good if not q.valid]
+        assert len(fixes) == n_mag - len(OFF_MAP_S) and len(off) == len(OFF_MAP_S)
+        assert all(q.reason.startswith("off map") for q in off)
+        for f in fixes:
+            # the EKF's 3-D pseudo-fix: the error along the 3-D gradient is gone (it was
+            # g . (0, 300 m, 0) / |g| = 36 m), the covariance says so and nothing else
+            t = round(f.header.stamp.sec + f.header.stamp.nanosec * 1e-9)
+            tl, tlo = truth[t]
+            _, g = gmap.total_and_gradient(tl, tlo, 26000.0)
+            u3 = g / np.linalg.norm(g)
+            en = LocalFrame(tl, tlo, 26000.0).to_en(np.deg2rad(f.latitude), np.deg2rad(f.longitude))
+            err3 = np.array([en[0], en[1], f.altitude - 26000.0])
+            assert abs(err3 @ u3) < 0.5
+            C = np.asarray(f.position_covariance).reshape(3, 3)
+            w, V = np.linalg.eigh(C)
+            assert abs(V[:, 0] @ u3) > 0.999 and w[1] > 1e9 and f.position_covariance_type == 3
+            assert np.sqrt(w[0]) == pytest.approx(0.5 / np.linalg.norm(g), rel=0.02)   # field_sigma / |g|
+        # counters on /diagnostics (the last status of each node)
+        diag = {}
+        for arr in msgs["/diagnostics"]:
+            for st in arr.status:
+                if st.name == "hyper_nav_aiding: geomag":
+                    v = {kv.key: kv.value for kv in st.values}
+                    diag["good" if v.get("map") == "ok" else "bad"] = v
+        assert diag["good"]["off_map"] == "2" and diag["good"]["rejected_mag_nan"] == "1"
+        assert diag["good"]["fixes"] == str(len(fixes))
+        assert diag["bad"]["map"].startswith("refused") and "epoch_decimal_year" in diag["bad"]["map"]
+        assert diag["bad"]["no_map"] == str(n_mag) and diag["bad"]["rejected_mag_nan"] == "1"
+        assert not msgs["/bad/geomag/fix"]
+        assert all(q.reason.startswith("no map") for q in msgs["/bad/geomag/quality"])
+    finally:
+        for p in procs.values():
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+        for p in procs.values():
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
