@@ -16,5 +16,8 @@ setup(
     maintainer_email="maintainers@hyper-nav.org",
     description="Navigation aiding: geomagnetic matching, virtual pseudoranges, lever-arm learning.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": [
+        "lever_arm_node = hyper_nav_aiding.nodes.lever_arm_node:main",
+        "reproduce_seed000 = hyper_nav_aiding.reproduce_seed000:main",
+    ]},
 )

@@ -60,19 +60,26 @@ class SimulatedFlight:
         """Fly the fusion core with ``cfg`` from the start to t0; returns the
         released solution at t0 as ``nav/state`` carries it (state without the
         optional blocks' nominal values, covariance)."""
+        return self.fused_states_at(cfg, [t0_s])[0]
+
+    def fused_states_at(self, cfg, epochs_s) -> list:
+        """``fused_state_at`` for several epochs in one flight."""
         eng = FusionEngine(cfg, self.scenario.filter_initial_state())
-        n = int(np.searchsorted(self.imu.t_s, t0_s + 1e-9))
-        j = 0
-        for k in range(n):
-            t = self.imu.t_s[k]
-            eng.add_imu(t, self.imu.dtheta_b_rad[k], self.imu.dvel_b_mps[k])
-            while j < len(self.gnss) and self.gnss[j].t_s <= t + 1e-9:
-                eng.add_measurement(self.gnss[j])
-                j += 1
-        sol = eng.release(final=True)[-1]
-        state = sol.state.copy()
-        state.extra = {}
-        return state, sol.P.copy()
+        out, j, k = [], 0, 0
+        for t0 in sorted(epochs_s):
+            n = int(np.searchsorted(self.imu.t_s, t0 + 1e-9))
+            for k in range(k, n):
+                t = self.imu.t_s[k]
+                eng.add_imu(t, self.imu.dtheta_b_rad[k], self.imu.dvel_b_mps[k])
+                while j < len(self.gnss) and self.gnss[j].t_s <= t + 1e-9:
+                    eng.add_measurement(self.gnss[j])
+                    j += 1
+            k = n
+            sol = [s for s in eng.release(final=True) if s.t_s <= t0 + 1e-9][-1]
+            state = sol.state.copy()
+            state.extra = {}
+            out.append((state, sol.P.copy()))
+        return out
 
     def window(self, state, P, duration_s: float) -> DataWindow:
         """The window of ``duration_s`` after the fused state (see module doc)."""
@@ -130,4 +137,57 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
                                                alt_m=m.alt_m + shift[2]))
             else:
                 out.append(dataclasses.replace(m, vel_enu_mps=m.vel_enu_mps + shift))
+    return dataclasses.replace(window, gnss=tuple(out))
+
+
+def triggered_window(flight: SimulatedFlight, cfg, lc, monitor_from_s: float = -np.inf, release_every: int = 10):
+    """Fly the fusion core with ``cfg`` over the scenario and feed the
+    lever-arm node's core (``ReestimationMonitor``) as the node would be fed:
+    IMU increments, GNSS measurements, released solutions as ``nav/state``
+    carries them. Returns (window, trigger epoch, monitor) at the first firing
+    from ``monitor_from_s`` on, or (None, None, monitor)."""
+    from .core.lever_arm.monitor import ReestimationMonitor
+
+    mon = ReestimationMonitor(lc, monitor_from_s)
+    eng = FusionEngine(cfg, flight.scenario.filter_initial_state())
+    imu, j = flight.imu, 0
+    for k in range(len(imu.t_s)):
+        t = imu.t_s[k]
+        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        while j < len(flight.gnss) and flight.gnss[j].t_s <= t + 1e-9:
+            eng.add_measurement(flight.gnss[j])
+            mon.add_gnss(flight.gnss[j])
+            j += 1
+        if k % release_every != release_every - 1:
+            continue
+        for sol in eng.release():
+            state = sol.state.copy()
+            state.extra = {}
+            window = mon.add_state(state, sol.P)
+            if window is not None:
+                return window, state.t_s, mon
+    return None, None, mon
+
+
+def with_gnss_sigmas(window: DataWindow, pos_sigma_m: float, vel_sigma_mps: float, rng=None) -> DataWindow:
+    """The window with other GNSS measurement sigmas (per ENU axis): the
+    covariances replaced and, with ``rng``, the fixes re-drawn around the
+    noise-free ones of ``window`` (pass a noise-free window then)."""
+    from hyper_nav_filter.core import earth
+    out = []
+    for m in window.gnss:
+        if m.kind == "gnss_pos":
+            m = dataclasses.replace(m, cov_enu_m2=np.eye(3) * pos_sigma_m**2)
+            if rng is not None:
+                d = rng.standard_normal(3) * pos_sigma_m
+                r_m, r_n = earth.radii(m.lat_rad)
+                m = dataclasses.replace(m, lat_rad=m.lat_rad + d[1] / (r_m + m.alt_m),
+                                        lon_rad=m.lon_rad + d[0] / ((r_n + m.alt_m) * np.cos(m.lat_rad)),
+                                        alt_m=m.alt_m + d[2])
+        else:
+            m = dataclasses.replace(m, cov_enu_m2ps2=np.eye(3) * vel_sigma_mps**2)
+            if rng is not None:
+                m = dataclasses.replace(m, vel_enu_mps=m.vel_enu_mps + rng.standard_normal(3) * vel_sigma_mps)
+        out.append(m)
     return dataclasses.replace(window, gnss=tuple(out))

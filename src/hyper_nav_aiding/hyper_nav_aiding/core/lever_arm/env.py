@@ -17,6 +17,7 @@ best state seen (the learned optimum of section III.B).
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import gymnasium as gym
@@ -25,6 +26,10 @@ import numpy as np
 from .replay import WindowPass, replay
 
 REWARD_KINDS = ("rms", "final")
+
+
+class DeadlineExceeded(RuntimeError):
+    """A pass was asked for after the environment's deadline (wall clock)."""
 
 
 def position_error_m(p: WindowPass, reward_kind: str) -> float:
@@ -75,6 +80,7 @@ class LeverArmFrequencyEnv(gym.Env):
         self.best_freqs_radps = self.w_init.copy()
         self.best_reward = -np.inf
         self.history: list[tuple[np.ndarray, float]] = []     # (frequencies, reward) of every pass
+        self.deadline_s: float | None = None                    # time.monotonic() limit of the passes
 
     # ---- frequencies <-> normalised state -------------------------------------
     def to_obs(self, w) -> np.ndarray:
@@ -84,8 +90,13 @@ class LeverArmFrequencyEnv(gym.Env):
         return self.w_ref * (1.0 + self.cfg.max_rel * np.clip(np.asarray(x, float), -1.0, 1.0))
 
     # ---- the reward of a model: one filter pass -----------------------------------
+    def check_deadline(self) -> None:
+        if self.deadline_s is not None and time.monotonic() > self.deadline_s:
+            raise DeadlineExceeded(f"wall-time limit reached after {self.n_passes} passes")
+
     def evaluate(self, w) -> float:
         """Reward of the frequencies ``w`` (clipped to the search box): one pass."""
+        self.check_deadline()
         w = np.clip(np.asarray(w, float), self.lo, self.hi)
         p = replay(self.window, self.filter_cfg, w)
         r = -position_error_m(p, self.cfg.reward_kind)

@@ -94,6 +94,7 @@ def max_likelihood(env, budget: int, rel_step: float = 1e-4, tol_rel: float = 1e
     nll, g, info = _scoring_terms(window, cfg, w, rel_step)
     used += 4
     while used + 5 <= budget:
+        env.check_deadline()
         A = info + lam * np.diag(np.maximum(np.diag(info), 1e-12))
         w_new = np.clip(w - np.linalg.solve(A, g), env.lo, env.hi)
         nll_new = replay(window, cfg, w_new).neg_log_likelihood()

@@ -11,14 +11,16 @@ estimate's 1-sigma comes from the Cramer-Rao bound at the estimate (``crb``,
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import ddpg, identifiers
+from . import identifiers
+from .ddpg import DDPGConfig
 from .crb import fisher_information
-from .env import EnvConfig, LeverArmFrequencyEnv
+from .env import DeadlineExceeded, EnvConfig, LeverArmFrequencyEnv
 
 METHODS = ("ddpg", "cmaes", "nelder_mead", "max_likelihood")
 
@@ -27,7 +29,7 @@ METHODS = ("ddpg", "cmaes", "nelder_mead", "max_likelihood")
 class ReestimationConfig:
     method: str = "ddpg"
     env: EnvConfig = EnvConfig()
-    agent: ddpg.DDPGConfig = ddpg.DDPGConfig()
+    agent: DDPGConfig = DDPGConfig()
     budget_passes: int = 250              # Table 3: 50 episodes x 5 steps
     min_improvement_m: float = 0.0
     sigma_from_crb: bool = True
@@ -70,27 +72,31 @@ def reestimate(window, filter_cfg, current_freqs_radps, rc: ReestimationConfig,
     window.check()
     w0 = np.asarray(current_freqs_radps, float)
     env = LeverArmFrequencyEnv(window, filter_cfg, w0, rc.env, reference_freqs_radps)
-    if rc.method == "ddpg":
-        n_ep = max(1, min(rc.agent.episodes, (rc.budget_passes - 1) // rc.agent.steps))
-        agent_cfg = ddpg.DDPGConfig(**{**vars(rc.agent), "episodes": n_ep})
-        res = ddpg.train(env, agent_cfg, seed=rc.seed, deadline_s=deadline)
-        freqs, reward, sigma, ep_rewards = res.freqs_radps, res.reward, None, res.episode_rewards
-    else:
-        if rc.method == "cmaes":
-            r = identifiers.cmaes(env, rc.budget_passes - 1, seed=rc.seed)
-        elif rc.method == "nelder_mead":
-            r = identifiers.nelder_mead(env, rc.budget_passes - 1)
+    env.deadline_s = deadline
+    freqs, reward, sigma, ep_rewards, timed_out = w0, -np.inf, None, [], False
+    try:
+        if rc.method == "ddpg":
+            from . import ddpg                      # jax/flax only where the agent runs
+            n_ep = max(1, min(rc.agent.episodes, (rc.budget_passes - 1) // rc.agent.steps))
+            res = ddpg.train(env, dataclasses.replace(rc.agent, episodes=n_ep), seed=rc.seed)
+            freqs, reward, ep_rewards = res.freqs_radps, res.reward, res.episode_rewards
         else:
-            r = identifiers.max_likelihood(env, rc.budget_passes - 1)
-        freqs, reward, sigma, ep_rewards = r.freqs_radps, r.reward, r.sigma_radps, []
+            r = {"cmaes": lambda: identifiers.cmaes(env, rc.budget_passes - 1, seed=rc.seed),
+                 "nelder_mead": lambda: identifiers.nelder_mead(env, rc.budget_passes - 1),
+                 "max_likelihood": lambda: identifiers.max_likelihood(env, rc.budget_passes - 1)}[rc.method]()
+            freqs, reward, sigma = r.freqs_radps, r.reward, r.sigma_radps
+    except DeadlineExceeded:
+        timed_out = True
+        freqs, reward = env.best_freqs_radps, env.best_reward
+    env.deadline_s = None
     reward_initial = next((rw for w, rw in env.history if np.array_equal(w, w0)), None)
     if reward_initial is None:
-        reward_initial = env.evaluate(w0)
-    if sigma is None and rc.sigma_from_crb and time.monotonic() < deadline:
+        reward_initial = float("nan") if timed_out else env.evaluate(w0)
+    if sigma is None and rc.sigma_from_crb and not timed_out and time.monotonic() < deadline:
         sigma = fisher_information(window, filter_cfg, freqs).sigma_radps
         env.n_passes += 7
     improvement = reward - reward_initial
-    if time.monotonic() > deadline:
+    if timed_out:
         accepted, reason = False, f"timed out after {time.perf_counter() - t0:.1f} s (limit {rc.timeout_s} s)"
     elif not np.all(np.isfinite(freqs)) or not np.isfinite(reward):
         accepted, reason = False, "non-finite estimate"

@@ -9,7 +9,7 @@ the paper's |r_hat - r_G|); averaging removes white fix noise and keeps a bias.
 The trigger fires when the statistic exceeds ``threshold_m`` while armed and at
 least ``cooldown_s`` after the last firing; it re-arms only once the statistic
 has fallen below ``release_m`` (< threshold: hysteresis), so one excursion
-fires once.
+fires once. It does not fire before it has seen ``averaging_s`` of residuals.
 """
 from __future__ import annotations
 
@@ -46,12 +46,15 @@ class ResidualTrigger:
         self.statistic_m = 0.0
         self.n_fired = 0
         self.n_suppressed_cooldown = 0
+        self._t_first = None
 
     def update(self, t_s: float, residual_enu_m) -> bool:
         """Add the residual of epoch t_s (in time order); True when the trigger fires."""
         r = np.asarray(residual_enu_m, float)
         if r.shape != (3,) or not np.all(np.isfinite(r)) or not np.isfinite(t_s):
             raise ValueError(f"residual must be 3 finite numbers at a finite epoch, got {residual_enu_m!r} at {t_s!r}")
+        if self._t_first is None:
+            self._t_first = t_s
         self._res.append((t_s, r))
         self._sum += r
         while self._res and self._res[0][0] < t_s - self.cfg.averaging_s - 1e-9:
@@ -61,7 +64,7 @@ class ResidualTrigger:
             if self.statistic_m < self.cfg.release_m:
                 self.armed = True
             return False
-        if self.statistic_m <= self.cfg.threshold_m:
+        if self.statistic_m <= self.cfg.threshold_m or t_s - self._t_first < self.cfg.averaging_s - 1e-9:
             return False
         if t_s - self.last_fire_t_s < self.cfg.cooldown_s:
             self.n_suppressed_cooldown += 1
