@@ -31,9 +31,13 @@ def test_failed_and_timed_out_jobs_are_reported(doublet, pm_window):
         w.submit((bad, cfg, INITIAL, ReestimationConfig(method="max_likelihood", budget_passes=10)), 30.0)
         out = wait(w)
         assert out.status == "error" and "no GNSS" in out.value
-        # a job far beyond its 0.2 s limit (+0.5 s grace) is abandoned and the worker restarted
-        slow = ReestimationConfig(method="cmaes", budget_passes=100000, timeout_s=0.2)
-        w.submit((pm_window, cfg, INITIAL, slow), 0.2)
+        # the job's own deadline: it stops between passes and is not accepted
+        slow = ReestimationConfig(method="cmaes", budget_passes=100000, timeout_s=0.3)
+        w.submit((pm_window, cfg, INITIAL, slow), 30.0)
+        out = wait(w)
+        assert out.status == "ok" and not out.value.accepted and out.value.reason.startswith("timed out")
+        # a job that does not stop by the worker's limit (0.2 s + 0.5 s grace) is abandoned
+        w.submit((pm_window, cfg, INITIAL, dataclasses.replace(slow, timeout_s=100.0)), 0.2)
         out = wait(w)
         assert out.status == "timeout" and out.wall_s < 10.0 and w.n_restarts == 1 and not w.busy
         w.submit((pm_window, cfg, INITIAL, ReestimationConfig(method="max_likelihood", budget_passes=10)), 60.0)
