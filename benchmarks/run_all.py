@@ -17,9 +17,7 @@ import numpy as np
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.eskf import ErrorStateKF
-from hyper_nav_filter.core.error_model import discretize, system_matrices
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core import mechanization
 from hyper_nav_filter.core.measurements import BaroHeight, GnssPosition, GnssVelocity, ModelContext
 from hyper_nav_filter.core.nav_state import ImuSample
 from hyper_nav_sim.core import simulate
@@ -94,19 +92,12 @@ class FilterpyBaseline:
         self.cfg = cfg
         self.kf = KalmanFilter(dim_x=cfg.layout.dim, dim_z=3)
         self.kf.P = cfg.initial_covariance()
-        self.helper = ErrorStateKF(cfg, initial.copy(), cfg.initial_covariance())
-        self.noise = cfg.noise_psd(cfg.layout)
-        self.imu_prev, self.v_prev = None, None
+        self.helper = ErrorStateKF(cfg, initial.copy(), cfg.initial_covariance())   # nominal state, Phi and Q
 
     def predict(self, imu):
-        h = self.helper
-        prior = h.state
-        dth, dv = mechanization.compensate(imu, prior)
-        F, G, Qc = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.cfg.layout, self.cfg, self.noise)
-        Phi, Q = discretize(F, G, Qc, imu.dt_s)
-        h.state = mechanization.propagate(prior, imu, self.imu_prev, self.v_prev)
-        self.v_prev, self.imu_prev = prior.vel_enu_mps, imu
-        self.kf.predict(F=Phi, Q=Q)
+        lin = self.helper.linearize(imu)
+        self.helper.predict(imu)          # the nominal state (its own P is not used)
+        self.kf.predict(F=lin.Phi, Q=lin.Q)
 
     def update(self, meas):
         z, H, R = meas.model(self.helper.state, self.cfg.layout, ModelContext(np.zeros(3), np.zeros(3), 0.0))

@@ -42,7 +42,7 @@ def test_every_topic_with_type_and_nominal_rate(recorded_run):
     c = reader.counts
     assert c["/imu/data_raw"] == 1500 and c["/gnss/fix"] == 300 and c["/imu/mag"] == 300
     assert c["/truth/state"] == 1501
-    assert c["/nav/state"] == 1500 - 50          # the last output_delay_s = 1 s is not released
+    assert c["/nav/state"] == 1500               # every IMU epoch, the last output_delay_s released at shutdown
 
 
 def test_nothing_lost_between_publishers_and_subscribers(recorded_run):
@@ -51,8 +51,11 @@ def test_nothing_lost_between_publishers_and_subscribers(recorded_run):
         assert topic in delivery, f"no publisher count for {topic}"
         assert delivery[topic]["published"] == delivery[topic]["recorded"] > 0, (topic, delivery[topic])
     fusion = recorded_run["diagnostics"]["hyper_nav_filter: fusion"]
-    assert int(fusion["imu_msgs"]) == delivery["imu/data_raw"]["published"]
-    assert int(fusion["gnss_fix_msgs"]) == delivery["gnss/fix"]["published"]
+    for topic in ("imu/data_raw", "gnss/fix", "gnss/vel"):          # every declared input received and used
+        assert int(fusion[f"received {topic}"]) == int(fusion[f"processed {topic}"]) == \
+            delivery[topic]["published"], (topic, fusion)
+    assert fusion["mode"] == "loosely coupled" and fusion["mode_sources"] == "gnss_pos,gnss_vel"
+    assert int(fusion["heartbeat"]) >= 1
     assert int(fusion.get("rejected_imu_nan", 0)) == 0
 
 
@@ -60,12 +63,12 @@ def test_live_fusion_equals_offline_core_on_the_bag(recorded_run):
     sc = recorded_run["scenario"]
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(recorded_run["bag"])
                if r.topic in ("/imu/data_raw", "/gnss/fix", "/gnss/vel")]
-    sols, _ = run_offline(records, sc.filter_config(), sc.filter_initial_state())
+    sols, _ = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
     live = recorded_run["nav"]
     fusion = recorded_run["diagnostics"]["hyper_nav_filter: fusion"]
     late = {k: v for k, v in fusion.items() if k.endswith("_after_release")}
     assert not late, f"measurements arrived after their epoch was released (machine overloaded?): {late}"
-    assert len(live) == len(sols) == 1450
+    assert len(live) == len(sols) == 1500
     for msg, sol in zip(live, sols):
         assert msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9 == pytest.approx(sol.t_s, abs=1e-9)
         assert msg.lat_rad == pytest.approx(sol.state.lat_rad, abs=1e-13)

@@ -1,6 +1,6 @@
 """Tightly coupled GNSS in the live graph: scenario seed004_tight (seed 004
 flight and raw GPS receiver, dynamics-driven loss of lock) with the fusion
-node in ``filter.gnss_mode: tight``: it takes gnss/raw + gnss/ephemeris over
+node with a declared ``gnss_raw`` source: it takes gnss/raw + gnss/ephemeris over
 DDS, turns the locked channels into pseudorange updates of the 17-state
 filter, and its nav/state stays close to truth/state; the offline core over
 the recorded bag gives the same solution."""
@@ -29,17 +29,18 @@ def test_seed004_tightly_coupled_fusion_over_dds(tmp_path):
         g.wait_until_done()
         sc = g.scenario
         fusion_log = g.log("fusion")
-    assert "subscribed to /imu/data_raw, /gnss/ephemeris, /gnss/raw" in fusion_log, fusion_log[-2000:]
+    assert "sources: imu (imu) <- imu/data_raw, gnss_raw (gnss_raw) <- gnss/raw, gnss/ephemeris" in fusion_log, \
+        fusion_log[-2000:]
     run = load_run(bag)
     delivery = delivery_check(run)
     for topic in ("imu/data_raw", "gnss/raw", "gnss/ephemeris", "nav/state", "truth/state"):
         assert delivery[topic]["published"] == delivery[topic]["recorded"] > 0, (topic, delivery[topic])
     fusion = run["diagnostics"]["hyper_nav_filter: fusion"]
-    assert fusion["gnss_mode"] == "tight"
-    assert int(fusion["imu_msgs"]) == delivery["imu/data_raw"]["published"]
-    assert int(fusion["gnss_raw_msgs"]) == delivery["gnss/raw"]["published"] == int(DURATION_S)
-    assert int(fusion["gnss_ephemeris_msgs"]) == delivery["gnss/ephemeris"]["published"]
-    assert "gnss_fix_msgs" not in fusion                   # tight mode does not take the receiver's fixes
+    assert fusion["sources"] == "imu,gnss_raw" and fusion["mode"] == "tightly coupled"
+    assert int(fusion["received imu/data_raw"]) == delivery["imu/data_raw"]["published"]
+    assert int(fusion["processed gnss/raw"]) == delivery["gnss/raw"]["published"] == int(DURATION_S)
+    assert int(fusion["processed gnss/ephemeris"]) == delivery["gnss/ephemeris"]["published"]
+    assert "received gnss/fix" not in fusion                # no declared source takes the receiver's fixes
     assert not any(k.startswith("rejected_") and int(v) for k, v in fusion.items()), fusion
     late = {k: v for k, v in fusion.items() if k.endswith("_after_release")}
     assert not late, f"measurements arrived after their epoch was released (machine overloaded?): {late}"
@@ -47,7 +48,7 @@ def test_seed004_tightly_coupled_fusion_over_dds(tmp_path):
     summary = summarize(errors(states_from_msgs(run["nav"]), states_from_msgs(run["truth"])), sc["report.skip_s"])
     pos = summary["pos_enu_m"]
     print(f"pseudorange updates accepted {accepted}, gated {gated}; channels used "
-          f"{fusion.get('gnss_channels_used')}, unlocked {fusion.get('gnss_channels_unlocked')}; "
+          f"{fusion.get('gnss_raw channels_used')}, unlocked {fusion.get('gnss_raw channels_unlocked')}; "
           f"position after {sc['report.skip_s']:.0f} s: RMS 3D {pos['rms_3d']:.2f} m, max {pos['max_3d']:.2f} m; "
           f"velocity RMS 3D {summary['vel_enu_mps']['rms_3d']:.3f} m/s")
     # measured (pseudoranges + rates): 86 epochs accepted, none gated, 1.25 m RMS 3D, max 2.8 m
@@ -61,7 +62,7 @@ def test_seed004_tightly_coupled_fusion_over_dds(tmp_path):
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
                if r.topic in ("/imu/data_raw", "/gnss/raw", "/gnss/ephemeris")]
     records.sort(key=lambda tm: stamp_to_s(tm[1].header.stamp))
-    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), tight=sc.tight_gnss_input())
+    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
     # the last epoch (t = 90 s) is processed only if its raw message came before
     # the last IMU sample, which differs between the node and the bag's order
     acc_off, gated_off = eng.kf.stats["pseudorange"][:2]

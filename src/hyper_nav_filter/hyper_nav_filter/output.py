@@ -3,8 +3,9 @@
 Frames (README, "Frames"): ``nav/state`` is geodetic + local-level ENU at the
 current position (frame ``enu``); ``nav/odom`` is in ``map``, the ENU tangent
 plane at the scenario origin (REP-105), child ``base_link`` (FLU); its twist
-is in the child frame, as nav_msgs/Odometry defines; ``nav/fix`` is a
-NavSatFix with the ENU position covariance.
+is in the child frame, as nav_msgs/Odometry defines (angular: the body rate
+relative to the Earth-fixed map, omega_eb_b); ``nav/fix`` is a NavSatFix with
+the ENU position covariance.
 """
 from __future__ import annotations
 
@@ -34,13 +35,13 @@ def _header(t_s: float, frame: str) -> dict:
     return {"header.stamp.sec": sec, "header.stamp.nanosec": nsec, "header.frame_id": frame}
 
 
-def navstate_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -> dict:
+def navstate_fields(sol: Solution, layout: StateLayout, frames: OutputFrames, mechanization_frame: str = "ENU") -> dict:
     s = sol.state
     roll, pitch, heading = C_b_n_to_euler(s.C_b_n)
     q = C_to_quat_xyzw(s.C_b_n)
     d = _header(sol.t_s, frames.enu)
     d.update({
-        "child_frame_id": frames.body, "mode": sol.mode, "mechanization_frame": "ENU",
+        "child_frame_id": frames.body, "mode": sol.mode, "mechanization_frame": mechanization_frame,
         "lat_rad": float(s.lat_rad), "lon_rad": float(s.lon_rad), "alt_m": float(s.alt_m),
         "vel_enu_mps": s.vel_enu_mps.tolist(),
         "q_b_enu.x": q[0], "q_b_enu.y": q[1], "q_b_enu.z": q[2], "q_b_enu.w": q[3],
@@ -75,6 +76,8 @@ def odometry_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) ->
     cov[:3, 3:] = C_n_map @ P[p_sl, a_sl] @ C_n_map.T
     cov[3:, :3] = cov[:3, 3:].T
     v_b = s.C_b_n.T @ s.vel_enu_mps
+    # map is Earth-fixed: the body's angular velocity relative to it is omega_eb = omega_ib - omega_ie
+    w_eb_b = sol.omega_ib_b_radps - s.C_b_n.T @ earth.omega_ie_n(s.lat_rad)
     tcov = np.zeros((6, 6))
     tcov[:3, :3] = s.C_b_n.T @ P[v_sl, v_sl] @ s.C_b_n
     if layout.has("bg"):
@@ -92,9 +95,9 @@ def odometry_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) ->
         "pose.covariance": cov.ravel().tolist(),
         "twist.twist.linear.x": float(v_b[0]), "twist.twist.linear.y": float(v_b[1]),
         "twist.twist.linear.z": float(v_b[2]),
-        "twist.twist.angular.x": float(sol.omega_ib_b_radps[0]),
-        "twist.twist.angular.y": float(sol.omega_ib_b_radps[1]),
-        "twist.twist.angular.z": float(sol.omega_ib_b_radps[2]),
+        "twist.twist.angular.x": float(w_eb_b[0]),
+        "twist.twist.angular.y": float(w_eb_b[1]),
+        "twist.twist.angular.z": float(w_eb_b[2]),
         "twist.covariance": tcov.ravel().tolist(),
     })
     return d

@@ -82,3 +82,29 @@ def run_node(node_factory, args=None, linger_s: float = 0.3) -> None:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def declare_params(node, specs, prefix: str = "", where: str = "") -> dict:
+    """Declare ROS parameters from ``core.params.ParamSpec`` declarations,
+    with descriptors (type, range, description), and return their values
+    checked and coerced by the same specs ({name: value}). A wrong type or
+    value raises ``ConfigError`` naming the parameter."""
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+    from rclpy.parameter import Parameter
+
+    from .core.params import BOOL, FLOAT, FLOATS, INT, STR, STRS
+
+    ptypes = {FLOAT: Parameter.Type.DOUBLE, INT: Parameter.Type.INTEGER, BOOL: Parameter.Type.BOOL,
+              STR: Parameter.Type.STRING, FLOATS: Parameter.Type.DOUBLE_ARRAY, STRS: Parameter.Type.STRING_ARRAY}
+    out = {}
+    for s in specs:
+        d = ParameterDescriptor(description=s.description + (f" [{s.range_text()}]" if s.range_text() else ""),
+                                type=ptypes[s.type].value)
+        if s.type in (FLOAT, FLOATS) and s.lo is not None and s.hi is not None:
+            d.floating_point_range = [FloatingPointRange(from_value=float(s.lo), to_value=float(s.hi), step=0.0)]
+        elif s.type == INT and s.lo is not None and s.hi is not None:
+            d.integer_range = [IntegerRange(from_value=int(s.lo), to_value=int(s.hi), step=0)]
+        value = node.declare_parameter(prefix + s.name, s.ros_default(), d).value
+        out[s.name] = s.check(value if not isinstance(value, (list, tuple)) or s.type in (FLOATS, STRS)
+                              else list(value), where or prefix)
+    return out

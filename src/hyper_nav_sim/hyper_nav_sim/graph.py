@@ -44,8 +44,6 @@ from .core.scenario import Scenario, ScenarioError, load_scenario, validate
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
-FUSION_INPUTS = {"loose": {"imu/data_raw", "gnss/fix", "gnss/vel"},          # by filter.gnss_mode
-                 "tight": {"imu/data_raw", "gnss/raw", "gnss/ephemeris"}}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
@@ -80,12 +78,20 @@ def apply_overrides(sc: Scenario, overrides: dict | None, workdir: pathlib.Path)
     return Scenario(path, data)
 
 
+def fusion_inputs(sc: Scenario) -> set[str]:
+    """Topics the fusion node subscribes: those of the scenario's declared sources."""
+    from hyper_nav_filter.sources import make_sources
+    return {i.topic.lstrip("/") for src in make_sources(sc.filter_source_specs(), sc.filter_config())
+            for i in src.inputs()}
+
+
 def fusion_parameters(sc: Scenario) -> dict:
     """The fusion node's ROS parameters, all derived from the scenario."""
+    from hyper_nav_filter.sources import spec_to_params
     init = sc.filter_initial_state()
     start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
-    params = {f"filter.{k}": list(v) if isinstance(v, tuple) else v
-              for k, v in vars(sc.filter_config()).items() if k != "layout"}
+    params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
+    params.update(spec_to_params(sc.filter_source_specs()))
     params.update({
         "init.t_s": float(init.t_s), "init.lat_deg": float(np.rad2deg(init.lat_rad)),
         "init.lon_deg": float(np.rad2deg(init.lon_rad)), "init.alt_m": float(init.alt_m),
@@ -93,10 +99,7 @@ def fusion_parameters(sc: Scenario) -> dict:
         "init.q_b_enu_xyzw": [float(x) for x in C_to_quat_xyzw(init.C_b_n)],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
         "origin.alt_m": float(start.alt_m[0]), "qos.depth": int(sc["graph.qos_depth"]),
-        "filter.gnss_mode": sc["filter.gnss_mode"],
     })
-    if sc["filter.gnss_mode"] == "tight":
-        params.update(sc.tight_gnss_parameters())
     return params
 
 
@@ -121,12 +124,13 @@ class Graph:
         self.domain_id = domain_id if domain_id is not None else int(os.environ.get("ROS_DOMAIN_ID", 0)) or \
             (os.getpid() % 100) + 1
         self.procs: dict[str, subprocess.Popen] = {}
+        self._fusion_inputs = fusion_inputs(self.scenario)
 
     # ---- parameters ------------------------------------------------------------
     def _subscribers(self, topics) -> int:
         """How many subscriptions the publishers of these topics must see."""
         n = 1 if self.record else 0
-        if "fusion" in self.nodes and FUSION_INPUTS[self.scenario["filter.gnss_mode"]] & set(topics):
+        if "fusion" in self.nodes and self._fusion_inputs & set(topics):
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 

@@ -202,13 +202,12 @@ def replay_main(argv=None) -> int:
     args = _args(argv, "replay_filter")
     sc = _scenario(args)
     reader = read_bag(args.bag)
-    tight = sc.tight_gnss_input() if sc["filter.gnss_mode"] == "tight" else None
-    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader
-               if r.topic.lstrip("/") in ("imu/data_raw", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris",
-                                          "truth/state")]
+    from .graph import fusion_inputs
+    inputs = fusion_inputs(sc) | {"truth/state"}
+    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader if r.topic.lstrip("/") in inputs]
     if reader.truncated:
         print(f"[replay_filter] WARNING: bag is truncated ({reader.error}); replaying what was readable")
-    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), tight=tight,
+    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sources=sc.filter_sources(),
                             final=args.smooth, keep_history=args.smooth)
     truth = states_from_msgs([m for t, m in records if t.lstrip("/") == "truth/state"])
     summary = summarize(errors(states_from_solutions(sols), truth), sc["report.skip_s"])

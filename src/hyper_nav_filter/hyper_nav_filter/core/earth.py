@@ -29,6 +29,14 @@ def _vec3(x, y, z):
     return np.stack([x, y, z], axis=-1)
 
 
+def wrap_lon_rad(lon_rad):
+    """Longitude wrapped to [-pi, pi) (scalars stay Python floats)."""
+    if np.ndim(lon_rad) == 0:
+        lon = float(lon_rad)
+        return lon if -np.pi <= lon < np.pi else (lon + np.pi) % (2.0 * np.pi) - np.pi
+    return (np.asarray(lon_rad, float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
 def radii(lat_rad):
     """Meridian (R_M) and prime-vertical (R_N) radii of curvature [m]."""
     s2 = np.sin(lat_rad) ** 2

@@ -1,10 +1,23 @@
-"""Error-state Kalman filter on the ENU strapdown INS.
+"""Error-state Kalman filter on a strapdown INS, in any mechanization frame.
 
-The filter owns the nominal state and the error covariance. ``predict``
-runs one mechanization step and propagates P; ``update`` takes any
-measurement model's (residual, H, R), gates it with a chi-square test on the
-normalized innovation squared, applies the Joseph-form update and injects
-the error estimate into the nominal state (then resets the error to zero).
+The filter composes a frame (``core.frames``: nominal state, mechanization,
+att/vel/pos error dynamics) with the configured state blocks
+(``core.blocks``, assembled by ``core.system_model``). It owns the nominal
+state (the frame's vector and the blocks' values), the error covariance in
+the frame's own error convention, and the predict/update cycle:
+
+* ``predict`` corrects one IMU interval with the blocks' current error
+  estimates (biases, scale factors, the lever-arm pre-processing), runs the
+  frame's mechanization, propagates the blocks' nominal values and P;
+* ``update`` takes any measurement's (residual, H, R), gates it with a
+  chi-square test on the normalized innovation squared, applies the
+  Joseph-form update and injects the error estimate into the nominal state.
+  ``model`` evaluates a measurement model (written once, in the ENU error
+  convention, on the geodetic/ENU view of the state) and maps its Jacobian
+  into the frame's own error state.
+
+State arrays are never modified in place (every step makes new ones), so a
+snapshot is a set of references and costs nothing to take.
 """
 from __future__ import annotations
 
@@ -13,13 +26,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
-from . import earth, mechanization
-from .attitude import rotvec_to_C
+from .blocks.base import Block
 from .config import FilterConfig
-from .elastic_lever_arm import LeverArmCompensator, ModalModel
-from .error_model import discretize, system_matrices
+from .frames import make_frame
 from .nav_state import ImuSample, NavState
-from .state_layout import BLOCK_SIZES, EXTRA_BLOCKS
+from .system_model import discretize, system_model
 
 
 @dataclass
@@ -31,120 +42,221 @@ class UpdateResult:
     residual: np.ndarray
 
 
-@dataclass
+@dataclass(frozen=True)
+class Linearization:
+    imu: ImuSample                 # the interval after IMU pre-processing (kept as imu_prev)
+    dth: np.ndarray                # corrected increments of this interval
+    dv: np.ndarray
+    dth_p: np.ndarray | None       # ... and of the previous one (None at the first step)
+    dv_p: np.ndarray | None
+    values: np.ndarray             # block values after pre-processing
+    F: np.ndarray
+    G: np.ndarray
+    qc: np.ndarray
+    Phi: np.ndarray
+    Q: np.ndarray
+
+
+@dataclass(frozen=True)
 class FilterSnapshot:
-    """Everything needed to resume the filter at an epoch (for re-processing)."""
-    state: NavState
-    P: np.ndarray
+    """Everything needed to resume the filter at an epoch (re-processing,
+    smoothing), including the configuration (model) in force."""
+    t_s: float
+    x_nav: np.ndarray
+    values: np.ndarray
+    P: np.ndarray                  # the frame's own error convention
     imu_prev: ImuSample | None
-    vel_prev_enu_mps: np.ndarray | None
+    cfg: FilterConfig
     n_updates: int
     n_rejected: int
     last_nis: float
-    stats: dict
+    stats: dict                    # {kind: (accepted, gated, sum of NIS/dof)}, never mutated
 
 
 class ErrorStateKF:
-    def __init__(self, config: FilterConfig, state: NavState, P0: np.ndarray):
+    def __init__(self, config: FilterConfig, state: NavState, P0: np.ndarray | None = None, **frame_kw):
+        """``state``: initial nominal state (geodetic/ENU view, block values in
+        its bias fields and ``extra``); ``P0`` in the ENU error convention
+        (default ``config.initial_covariance()``)."""
         self.cfg = config
         self.layout = config.layout
-        self.state = state
-        self.P = P0.copy()
+        self.frame = make_frame(config, state, **frame_kw)
+        self._set_model(config)
+        self.t_s = float(state.t_s)
+        self.x_nav = self.frame.nominal(state)
+        self.values = self._values_from(state)
+        P0 = config.initial_covariance() if P0 is None else np.asarray(P0, float)
+        T = self.to_enu()
+        if T is None:
+            self.P = P0.copy()
+        else:
+            Ti = np.linalg.inv(T)
+            self.P = 0.5 * (Ti @ P0 @ Ti.T + (Ti @ P0 @ Ti.T).T)
         self.imu_prev: ImuSample | None = None
-        self.vel_prev_enu_mps: np.ndarray | None = None
         self.n_updates = 0
         self.n_rejected = 0
         self.last_nis = float("nan")
-        # per measurement kind: [accepted, rejected by the gate, sum of NIS]
-        self.stats: dict[str, list] = {}
+        self.stats: dict[str, tuple] = {}
         # per-epoch quantities the RTS smoother needs (see smoother.py)
         self.last_Phi = np.eye(self.layout.dim)
-        self.P_prior = self.P.copy()
+        self.P_prior = self.P
         self.epoch_dx = np.zeros(self.layout.dim)
-        self._gate = {}
-        self._noise = config.noise_psd(self.layout)
-        self._lever = LeverArmCompensator(ModalModel.from_config(config)) if self.layout.has("lev") else None
+        self._gate: dict[int, float] = {}
 
-    # ---- bookkeeping for re-processing -------------------------------------
+    def _set_model(self, cfg: FilterConfig) -> None:
+        self.cfg = cfg
+        self.sys = system_model(cfg)
+        lay = cfg.layout
+        self._roles = {role: [lay.value_sl(b.name) for b in lay.value_blocks if b.imu_role == role]
+                       for role in ("gyro_bias", "accel_bias", "gyro_scale", "accel_scale")}
+        self._preprocessors = [(b, lay.value_sl(b.name)) for b in lay.value_blocks if b.preprocess is not None]
+        self._propagated = [(b, lay.value_sl(b.name)) for b in lay.value_blocks
+                            if type(b).propagate is not Block.propagate]
+
+    # ---- views ------------------------------------------------------------------------
+    def _values_from(self, nav: NavState) -> np.ndarray:
+        parts = []
+        for b in self.layout.value_blocks:
+            v = getattr(nav, b.nav_state_field) if b.nav_state_field else nav.extra.get(b.name)
+            parts.append(b.initial_value(self.cfg) if v is None else np.asarray(v, float))
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def view(self, t_s: float, x_nav: np.ndarray, values: np.ndarray) -> NavState:
+        """The geodetic/ENU NavState of a nominal state (a fresh object)."""
+        lat, lon, alt, v, C = self.frame.view(x_nav, t_s)
+        nav = NavState(t_s, lat, lon, alt, v, C)
+        for b in self.layout.value_blocks:
+            val = values[self.layout.value_sl(b.name)].copy()
+            if b.nav_state_field:
+                setattr(nav, b.nav_state_field, val)
+            else:
+                nav.extra[b.name] = val
+        return nav
+
+    @property
+    def state(self) -> NavState:
+        """The current nominal state as a geodetic/ENU NavState (a copy)."""
+        return self.view(self.t_s, self.x_nav, self.values)
+
+    def to_enu(self, x_nav=None, t_s=None) -> np.ndarray | None:
+        """n x n transform of this filter's error state into the ENU convention
+        (None when the frame is ENU, i.e. the identity)."""
+        T9 = self.frame.to_enu(self.x_nav if x_nav is None else x_nav, self.t_s if t_s is None else t_s)
+        if T9 is None:
+            return None
+        T = np.eye(self.layout.dim)
+        T[:9, :9] = T9
+        return T
+
+    def P_enu(self, snap: FilterSnapshot | None = None) -> np.ndarray:
+        """The error covariance in the ENU convention (of a snapshot, or now)."""
+        x, t, P = (self.x_nav, self.t_s, self.P) if snap is None else (snap.x_nav, snap.t_s, snap.P)
+        T9 = self.frame.to_enu(x, t)
+        if T9 is None:
+            return P
+        T = np.eye(len(P))
+        T[:9, :9] = T9
+        out = T @ P @ T.T
+        return 0.5 * (out + out.T)
+
+    def snapshot_state(self, snap: FilterSnapshot) -> NavState:
+        return self.view(snap.t_s, snap.x_nav, snap.values)
+
+    # ---- bookkeeping for re-processing -----------------------------------------------
     def snapshot(self) -> FilterSnapshot:
-        return FilterSnapshot(self.state.copy(), self.P.copy(), self.imu_prev,
-                              None if self.vel_prev_enu_mps is None else self.vel_prev_enu_mps.copy(),
-                              self.n_updates, self.n_rejected, self.last_nis,
-                              {k: list(v) for k, v in self.stats.items()})
+        return FilterSnapshot(self.t_s, self.x_nav, self.values, self.P, self.imu_prev, self.cfg, self.n_updates,
+                              self.n_rejected, self.last_nis, self.stats)
 
     def restore(self, snap: FilterSnapshot) -> None:
-        self.state = snap.state.copy()
-        self.P = snap.P.copy()
-        self.imu_prev = snap.imu_prev
-        self.vel_prev_enu_mps = None if snap.vel_prev_enu_mps is None else snap.vel_prev_enu_mps.copy()
-        self.n_updates, self.n_rejected, self.last_nis = snap.n_updates, snap.n_rejected, snap.last_nis
-        self.stats = {k: list(v) for k, v in (snap.stats or {}).items()}
+        self.t_s, self.x_nav, self.values, self.P, self.imu_prev = snap.t_s, snap.x_nav, snap.values, snap.P, \
+            snap.imu_prev
+        if snap.cfg is not self.cfg:
+            self._set_model(snap.cfg)
+        self.n_updates, self.n_rejected, self.last_nis, self.stats = snap.n_updates, snap.n_rejected, \
+            snap.last_nis, snap.stats
 
-    # ---- predict ----------------------------------------------------------------
+    def apply_model_update(self, values: dict) -> None:
+        """Adopt new values of updatable configuration fields from now on
+        (a time-stamped model update; ``FilterConfig.with_updates``)."""
+        self._set_model(self.cfg.with_updates(values))
+
+    # ---- IMU error correction ---------------------------------------------------------
+    def corrected(self, dtheta_b_rad, dvel_b_mps, dt_s: float, values=None):
+        """Increments with the blocks' IMU errors removed: biases (bg + gm,
+        ba), then the scale factors divided out, omega = (omega_meas - b) / (1 + s)."""
+        v = self.values if values is None else values
+        dth, dv = dtheta_b_rad, dvel_b_mps
+        for s in self._roles["gyro_bias"]:
+            dth = dth - v[s] * dt_s
+        for s in self._roles["accel_bias"]:
+            dv = dv - v[s] * dt_s
+        for s in self._roles["gyro_scale"]:
+            dth = dth / (1.0 + v[s])
+        for s in self._roles["accel_scale"]:
+            dv = dv / (1.0 + v[s])
+        return dth, dv
+
+    # ---- predict ----------------------------------------------------------------------
     def predict(self, imu: ImuSample) -> None:
-        """Mechanize one IMU interval and propagate the covariance. With the
-        ``lev`` block the velocity increment is first moved from the IMU
-        station to the CG (``_compensate_lever``)."""
-        prior = self.state
-        wdot, lev1 = None, None
-        if self._lever is not None:
-            imu, lev1, wdot = self._compensate_lever(imu, prior)
-        dth, dv = mechanization.compensate(imu, prior)
-        F, G, Qc = system_matrices(prior, dv / imu.dt_s, dth / imu.dt_s, self.layout, self.cfg,
-                                    self._noise, wdot, self._lever.model if self._lever else None)
-        Phi, Q = discretize(F, G, Qc, imu.dt_s, exact=self._lever is not None)
-        self.state = mechanization.propagate(prior, imu, self.imu_prev, self.vel_prev_enu_mps)
-        self.state.extra = self._propagate_extra(prior.extra, imu.dt_s, lev1)
-        self.vel_prev_enu_mps = prior.vel_enu_mps
-        self.imu_prev = imu
-        self._propagate_covariance(Phi, Q)
-
-    def _propagate_extra(self, extra: dict, dt_s: float, lev1) -> dict:
-        """Nominal values of the optional blocks over one interval, as their
-        error models say: the clock bias integrates the drift (b' = d), the
-        Markov gyro drift decays (gm' = -gm / T_g), the modes were stepped by
-        the lever-arm compensation; scale factors are constants."""
-        out = dict(extra)
-        if "clk" in out:
-            b, d = out["clk"]
-            out["clk"] = np.array([b + d * dt_s, d])
-        if "gm" in out:
-            out["gm"] = out["gm"] * np.exp(-dt_s / self.cfg.gyro_markov_tau_s)
-        if lev1 is not None:
-            out["lev"] = lev1
-        return out
-
-    def _compensate_lever(self, imu: ImuSample, prior: NavState):
-        """Dynamic lever-arm compensation (seed 000 Fig. 3): propagate the
-        nominal modal state over the interval and remove the lever-arm
-        velocity increment from the raw sample. Returns (compensated sample,
-        modal state at its end, angular acceleration)."""
-        dth_c, dv_c = prior.compensate(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s)
-        w_prev = None
-        if self.imu_prev is not None:
-            w_prev = prior.compensate(self.imu_prev.dtheta_b_rad, self.imu_prev.dvel_b_mps,
-                                      self.imu_prev.dt_s)[0] / self.imu_prev.dt_s
-        lev = prior.extra.get("lev")
-        if lev is None:          # first interval: start at the static deflection
-            lev = self._lever.model.equilibrium(dv_c / imu.dt_s)
-            prior.extra["lev"] = lev
-        dv_cg, lev1, _, wdot = self._lever.compensate(lev, dth_c, dv_c, imu.dt_s, w_prev)
-        # removed from the raw increment (the scale-factor product s * dv_lever is neglected)
-        out = ImuSample(imu.t_s, imu.dt_s, imu.dtheta_b_rad, imu.dvel_b_mps - (dv_c - dv_cg))
-        return out, lev1, wdot
-
-    def _propagate_covariance(self, Phi, Q) -> None:
-        """P = Phi P Phi^T + Q (symmetrised); keep Phi and the prior for the smoother."""
-        P = Phi @ self.P @ Phi.T + Q
+        """Mechanize one IMU interval and propagate the covariance."""
+        lin = self.linearize(imu)
+        self.x_nav = self.frame.mechanize(self.x_nav, self.t_s, lin.dth, lin.dv, lin.dth_p, lin.dv_p, imu.dt_s)
+        new_vals = lin.values
+        for blk, s in self._propagated:
+            new_vals = new_vals.copy() if new_vals is self.values else new_vals
+            new_vals[s] = blk.propagate(new_vals[s], imu.dt_s, self.cfg)
+        self.values = new_vals
+        self.imu_prev = lin.imu
+        self.t_s = imu.t_s
+        P = lin.Phi @ self.P @ lin.Phi.T + lin.Q
         self.P = 0.5 * (P + P.T)
-        self.last_Phi, self.P_prior = Phi, self.P.copy()
-        self.epoch_dx = np.zeros(self.layout.dim)
+        self.last_Phi, self.P_prior = lin.Phi, self.P
+        self.epoch_dx = None
 
-    # ---- update -----------------------------------------------------------------
+    def linearize(self, imu: ImuSample) -> "Linearization":
+        """Everything one predict step needs, at the current state, without
+        changing it: the corrected increments of this and the previous
+        interval, the blocks' values after IMU pre-processing (the lever-arm
+        modes), F, G, qc and the discrete Phi, Q."""
+        dt = imu.dt_s
+        vals = self.values
+        dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, vals)
+        prev = self.imu_prev
+        if prev is None:
+            dth_p = dv_p = w_prev = None
+            wdot = np.zeros(3)
+        else:
+            dth_p, dv_p = self.corrected(prev.dtheta_b_rad, prev.dvel_b_mps, prev.dt_s, vals)
+            w_prev = dth_p / prev.dt_s
+            wdot = (dth / dt - w_prev) / dt
+        new_vals = vals
+        for blk, s in self._preprocessors:
+            dv_remove, v1 = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg)
+            imu = ImuSample(imu.t_s, dt, imu.dtheta_b_rad, imu.dvel_b_mps - dv_remove)
+            dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, vals)
+            new_vals = new_vals.copy() if new_vals is vals else new_vals
+            new_vals[s] = v1
+        w, f = dth / dt, dv / dt
+        F9, C = self.frame.error_dynamics(self.x_nav, self.t_s, f, w)
+        F, G, qc = self.sys.matrices(F9, C, w, f, wdot)
+        Phi, Q = discretize(F, G, qc, dt, self.sys.exact)
+        return Linearization(imu, dth, dv, dth_p, dv_p, new_vals, F, G, qc, Phi, Q)
+
+    def error(self, est: FilterSnapshot, truth: FilterSnapshot) -> np.ndarray:
+        """Error state (estimate - truth) between two states of this filter, in
+        its own convention (the inverse of ``inject`` to first order)."""
+        return np.concatenate([self.frame.difference(est.x_nav, truth.x_nav), est.values - truth.values])
+
+    # ---- update -----------------------------------------------------------------------
     def model(self, meas, ctx):
-        """(residual, H, R) of a measurement for the current state; a filter in
-        another mechanization frame overrides this to use its own models."""
-        return meas.model(self.state, self.layout, ctx)
+        """(residual, H, R) of a measurement at the current state, H in this
+        filter's own error state (models are written in the ENU convention)."""
+        residual, H, R = meas.model(self.state, self.layout, ctx)
+        T9 = self.frame.to_enu(self.x_nav, self.t_s)
+        if T9 is not None:
+            H = np.array(H, float)
+            H[:, :9] = H[:, :9] @ T9
+        return residual, H, R
 
     def gate_threshold(self, dof: int) -> float:
         if dof not in self._gate:
@@ -153,7 +265,7 @@ class ErrorStateKF:
 
     def update(self, kind: str, t_s: float, residual, H, R) -> UpdateResult:
         """Apply a measurement: residual = predicted - measured, H its Jacobian
-        w.r.t. the error state, R its covariance."""
+        w.r.t. this filter's error state, R its covariance."""
         residual = np.asarray(residual, dtype=float)
         S = H @ self.P @ H.T + R
         S = 0.5 * (S + S.T)
@@ -164,42 +276,25 @@ class ErrorStateKF:
             return UpdateResult(kind, t_s, float("inf"), False, residual)
         nis = float(residual @ S_inv_r)
         self.last_nis = nis
-        st = self.stats.setdefault(kind, [0, 0, 0.0])
+        acc, gated, nis_sum = self.stats.get(kind, (0, 0, 0.0))
         if not np.isfinite(nis) or nis > self.gate_threshold(len(residual)):
             self.n_rejected += 1
-            st[1] += 1
+            self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
             return UpdateResult(kind, t_s, nis, False, residual)
-        st[0] += 1
-        st[2] += nis / len(residual)
+        self.stats = {**self.stats, kind: (acc + 1, gated, nis_sum + nis / len(residual))}
         K = np.linalg.solve(S, H @ self.P).T          # P H^T S^-1 (S symmetric)
         dx = K @ residual
         I_KH = np.eye(self.layout.dim) - K @ H
         P = I_KH @ self.P @ I_KH.T + K @ R @ K.T        # Joseph form
         self.P = 0.5 * (P + P.T)
-        self._inject(dx)
-        self.epoch_dx = self.epoch_dx + dx
+        self.inject(dx)
+        self.epoch_dx = dx if self.epoch_dx is None else self.epoch_dx + dx
         self.n_updates += 1
         return UpdateResult(kind, t_s, nis, True, residual)
 
     def inject(self, dx: np.ndarray) -> None:
-        """Public form of the correction: nominal state minus error ``dx``."""
-        self._inject(dx)
-
-    def _inject(self, dx: np.ndarray) -> None:
-        """Correct the nominal state with the error estimate (estimate - truth)."""
-        lay, s = self.layout, self.state
-        phi = dx[lay.sl("att")]
-        s.C_b_n = rotvec_to_C(phi) @ s.C_b_n        # C_true = (I + [phi x]) C_est
-        s.vel_enu_mps = s.vel_enu_mps - dx[lay.sl("vel")]
-        d_e, d_n, d_u = dx[lay.sl("pos")]
-        r_m, r_n = earth.radii(s.lat_rad)
-        s.lat_rad -= d_n / (r_m + s.alt_m)
-        s.lon_rad -= d_e / ((r_n + s.alt_m) * np.cos(s.lat_rad))
-        s.alt_m -= d_u
-        if lay.has("bg"):
-            s.gyro_bias_b_radps = s.gyro_bias_b_radps - dx[lay.sl("bg")]
-        if lay.has("ba"):
-            s.accel_bias_b_mps2 = s.accel_bias_b_mps2 - dx[lay.sl("ba")]
-        for name in EXTRA_BLOCKS:
-            if lay.has(name):
-                s.extra[name] = s.extra.get(name, np.zeros(BLOCK_SIZES[name])) - dx[lay.sl(name)]
+        """Correct the nominal state with an error estimate dx (estimate -
+        truth): the frame's att/vel/pos, then every block value minus its error."""
+        self.x_nav = self.frame.inject(self.x_nav, dx[:9])
+        if len(self.values):
+            self.values = self.values - dx[9:]

@@ -1,60 +1,83 @@
-"""Fusion engine: the ESKF fed by time-stamped IMU and aiding measurements.
+"""Fusion engine: the error-state filter fed by time-stamped IMU samples,
+aiding measurements and model updates.
 
-Measurements are processed in timestamp order whatever order they arrive in.
-The engine keeps, for a window of ``reprocess_window_s``, every IMU sample and
-the filter snapshot after each IMU epoch. A measurement stamped before the
-latest IMU epoch (late, e.g. a GNSS fix delivered 200 ms after its epoch)
-restores the snapshot before its epoch and re-runs the stored IMU samples and
-measurements from there, so the result is the same as if it had arrived on
-time. Solutions are released ``output_delay_s`` behind the latest IMU epoch,
-which makes them independent of arrival order for delays up to that value
-(the live node and an offline run over a bag give identical numbers).
+Events are processed in timestamp order whatever order they arrive in. The
+engine keeps, for ``reprocess_window_s``, every IMU sample and the filter
+snapshot after each IMU epoch. An event stamped before the latest IMU epoch
+(late, e.g. a GNSS fix delivered 200 ms after its epoch, or a model update
+computed by a slow aiding node) marks the stored epochs from its epoch on;
+before the next step the engine restores the snapshot before that epoch and
+re-runs the stored samples and events from there, so the result is the same
+as on-time delivery. Model updates (``core.model_update``) are applied at
+their epoch and the configuration in force is part of every snapshot.
+
+Solutions are released ``output_delay_s`` behind the latest IMU epoch on a
+fixed grid of ``output_rate_hz`` (t0 + n / rate), which makes them
+independent of arrival order for delays up to that value (the live node and
+an offline run over a bag give identical numbers).
+
+IMU gaps: an interval longer than ``imu_gap_s`` (a hole in a bag, a dropped
+stream) is bridged up to one nominal interval before the new sample with
+body rates interpolated linearly between the last sample before the gap and
+the first after it, in steps of the nominal interval (at most 1000), so the
+time line continues and measurements inside the gap still apply; the
+covariance is inflated by the unknown deviation of specific force and rate
+from that interpolation (``gap_accel_sigma_mps2``, ``gap_rate_sigma_deg_per_s``)
+so that the next aiding data is accepted and pulls the solution back. The gap is counted
+(``imu_gaps``, ``imu_gap_total_s``) and the solutions in it are flagged
+INS_ONLY. The engine never stalls.
 """
 from __future__ import annotations
 
 import bisect
+import math
 from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import earth
 from .config import FilterConfig
 from .eskf import ErrorStateKF, FilterSnapshot
 from .measurements import ModelContext, is_finite
+from .model_update import ModelUpdate
 from .nav_state import ImuSample, NavState
+from .params import ConfigError
 
-MODE_INITIALIZING, MODE_INS_ONLY, MODE_LOOSELY_COUPLED = 1, 2, 3
+# NavState.msg modes
+MODE_INITIALIZING, MODE_INS_ONLY, MODE_LOOSELY_COUPLED, MODE_TIGHTLY_COUPLED, MODE_AIDED = 1, 2, 3, 4, 5
+MODE_NAMES = {MODE_INITIALIZING: "initializing", MODE_INS_ONLY: "INS only", MODE_LOOSELY_COUPLED: "loosely coupled",
+              MODE_TIGHTLY_COUPLED: "tightly coupled", MODE_AIDED: "aided (non-GNSS)"}
+_COUPLING_MODE = {"tight": MODE_TIGHTLY_COUPLED, "loose": MODE_LOOSELY_COUPLED, "aiding": MODE_AIDED}
+MODE_WINDOW_S = 1.0            # a source counts toward the mode for this long after an accepted update
+_EPS_S = 1e-9
 
 
-def make_filter(cfg: FilterConfig, initial: NavState):
-    """The error-state filter of the configured mechanization frame
-    (``cfg.mechanization_frame``: "ENU" or "LCI")."""
-    if cfg.mechanization_frame == "LCI":
-        from .lci.filter import LciErrorStateKF
-        return LciErrorStateKF(cfg, initial, cfg.initial_covariance())
-    return ErrorStateKF(cfg, initial, cfg.initial_covariance())
+def make_filter(cfg: FilterConfig, initial: NavState) -> ErrorStateKF:
+    """The error-state filter of the configured mechanization frame."""
+    return ErrorStateKF(cfg, initial)
 
 
 @dataclass
 class Solution:
     t_s: float
     state: NavState
-    P: np.ndarray
+    P: np.ndarray                  # ENU error convention
     mode: int
     n_updates: int
     n_rejected: int
     last_nis: float
     omega_ib_b_radps: np.ndarray
     f_b_mps2: np.ndarray
+    sources: tuple = ()            # measurement kinds accepted within MODE_WINDOW_S
 
 
 @dataclass
 class _Epoch:
     imu: ImuSample
     snap: FilterSnapshot
-    last_update_t_s: float
-    Phi: np.ndarray | None = None        # transition from the previous epoch
+    last_accept: dict              # {kind: t of the last accepted update}, copy-on-write
+    extra_Q: np.ndarray | None = None    # covariance inflation after this epoch (IMU gap)
+    Phi: np.ndarray | None = None        # transition from the previous epoch (smoother)
     P_prior: np.ndarray | None = None    # covariance before this epoch's updates
     dx: np.ndarray | None = None         # sum of the error corrections applied here
 
@@ -67,46 +90,75 @@ class FusionEngine:
         self.history: list[_Epoch] = []
         self.kf = make_filter(cfg, initial.copy())
         self._base = self.kf.snapshot()          # state before the first stored epoch
-        self._base_last_update = -np.inf
+        self._base_accept: dict = {}
         self._epochs: list[_Epoch] = []
         self._times: list[float] = []
-        self._meas: list[tuple[float, str, int, object]] = []   # sorted (t, kind, seq, meas)
+        self._events: list[tuple] = []           # sorted (t, priority, kind, seq, event): arrival order
+                                                  # within an epoch does not matter
         self._seq = 0
-        self._next_output_t = initial.t_s
-        self._last_released_t = -np.inf
-        self._dirty_from = 10**9
+        self._at = -1                             # index of the epoch the filter is at (-1: base)
+        self._dirty_from = math.inf               # earliest epoch a late event touched
+        self._t0_out = float(initial.t_s)
+        self._n_out = 0                           # next output time = t0 + n / rate
+        self._released = 0                        # epochs [0, _released) of _epochs are released
+        self._last_released_t = -math.inf
+        self._last_dt = None
+        self._pending_gap_Q = None
         self.counters: Counter = Counter()
-        self.nis_by_kind: dict[str, list[float]] = {}
+        self.gaps: list[tuple[float, float]] = []
 
     @property
     def t_latest_s(self) -> float:
-        return self._times[-1] if self._times else self._base.state.t_s
+        return self._times[-1] if self._times else self._base.t_s
 
-    # ---- inputs -----------------------------------------------------------------
+    # ---- inputs -------------------------------------------------------------------
     def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps) -> tuple[bool, str]:
         """Add an IMU sample stamped at the end of its interval. Returns
         (accepted, reason); rejected samples are counted, never raised."""
-        dtheta_b_rad = np.asarray(dtheta_b_rad, dtype=float)
-        dvel_b_mps = np.asarray(dvel_b_mps, dtype=float)
-        if not (np.isfinite(t_s) and np.all(np.isfinite(dtheta_b_rad)) and np.all(np.isfinite(dvel_b_mps))):
-            return self._reject("imu_nan")
-        dt = t_s - self.t_latest_s
-        if dt <= 0.0:
-            return self._reject("imu_out_of_order")
-        if dt > self.cfg.reprocess_window_s:
-            return self._reject("imu_gap")
-        imu = ImuSample(t_s, dt, dtheta_b_rad, dvel_b_mps)
-        self._catch_up()
-        self._process_epoch(len(self._epochs), imu)
-        self.counters["imu_accepted"] += 1
-        self._trim()
+        dth = np.asarray(dtheta_b_rad, dtype=float)
+        dv = np.asarray(dvel_b_mps, dtype=float)
+        ok, reason = self._check_imu_time(t_s, dth, dv)
+        if not ok:
+            return ok, reason
+        self._accept_imu(t_s, dth, dv)
         return True, "ok"
 
     def add_imu_rates(self, t_s: float, omega_b_radps, f_b_mps2) -> tuple[bool, str]:
-        """Add an IMU sample given as mean rates over (t_latest, t_s] (the
-        sensor_msgs/Imu mapping); increments = rate * (t_s - t_latest)."""
+        """Add an IMU sample given as mean rates over its interval (the
+        sensor_msgs/Imu mapping): increments = rate * (t_s - t_latest), or
+        rate * the nominal interval after a gap."""
+        w = np.asarray(omega_b_radps, float)
+        f = np.asarray(f_b_mps2, float)
+        ok, reason = self._check_imu_time(t_s, w, f)
+        if not ok:
+            return ok, reason
         dt = t_s - self.t_latest_s
-        return self.add_imu(t_s, np.asarray(omega_b_radps, float) * dt, np.asarray(f_b_mps2, float) * dt)
+        self._accept_imu(t_s, w * dt, f * dt, rates=(w, f))
+        return True, "ok"
+
+    def _check_imu_time(self, t_s, a, b) -> tuple[bool, str]:
+        if not (math.isfinite(t_s) and np.isfinite(a).all() and np.isfinite(b).all()):
+            return self._reject("imu_nan")
+        dt = t_s - self.t_latest_s
+        if dt == 0.0 and self._times:
+            return self._reject("imu_duplicate")
+        if dt <= 0.0:
+            return self._reject("imu_out_of_order")
+        return True, "ok"
+
+    def _accept_imu(self, t_s, dth, dv, rates=None) -> None:
+        dt = t_s - self.t_latest_s
+        if dt > self.cfg.imu_gap_s and self._last_dt is not None:
+            # the new sample covers its own (nominal) interval: rates given, or increments / nominal interval
+            w1, f1 = rates if rates is not None else (dth / self._last_dt, dv / self._last_dt)
+            self._bridge_gap(t_s, w1, f1)
+            dt = t_s - self.t_latest_s
+            dth, dv = w1 * dt, f1 * dt
+        self._catch_up()
+        self._append_epoch(ImuSample(t_s, dt, dth, dv))
+        self._last_dt = dt
+        self.counters["imu_accepted"] += 1
+        self._trim()
 
     def add_measurement(self, meas) -> tuple[bool, str]:
         """Queue an aiding measurement (``meas.t_s`` is its epoch). Late ones
@@ -114,47 +166,149 @@ class FusionEngine:
         kind = meas.kind
         if not is_finite(meas):
             return self._reject(f"{kind}_nan")
-        if meas.t_s <= self._base.state.t_s:
+        return self._queue(meas, 1)
+
+    def add_model_update(self, update: ModelUpdate) -> tuple[bool, str]:
+        """Queue a model update, applied at ``update.t_s`` (before measurements
+        of the same epoch). Invalid updates are rejected and counted."""
+        try:
+            self.cfg.with_updates(update.fields)
+        except ConfigError:
+            return self._reject("model_update_invalid")
+        return self._queue(update, 0)
+
+    def _queue(self, event, priority: int) -> tuple[bool, str]:
+        kind, t = event.kind, event.t_s
+        if not math.isfinite(t):
+            return self._reject(f"{kind}_nan")
+        if t <= self._base.t_s:
             return self._reject(f"{kind}_stale")
-        if meas.t_s <= self._last_released_t + 1e-9:
+        if t <= self._last_released_t + _EPS_S:
             # still applied, but solutions already released did not see it:
             # a delay longer than output_delay_s (live and offline may differ)
             self.counters[f"{kind}_after_release"] += 1
         self._seq += 1
-        bisect.insort(self._meas, (meas.t_s, kind, self._seq, meas))
+        bisect.insort(self._events, (t, priority, kind, self._seq, event))
         self.counters[f"{kind}_received"] += 1
-        if self._times and meas.t_s <= self._times[-1] + 1e-9:
-            # re-process lazily: several measurements of one epoch cost one pass
-            j = bisect.bisect_left(self._times, meas.t_s - 1e-9)
-            if meas.t_s < self._times[-1] - 1e-9:
+        if self._times and t <= self._times[-1] + _EPS_S:
+            j = bisect.bisect_left(self._times, t - _EPS_S)
+            if t < self._times[-1] - _EPS_S:
                 self.counters[f"{kind}_late"] += 1
             self._dirty_from = min(self._dirty_from, j)
         return True, "ok"
 
+    # ---- gaps ---------------------------------------------------------------------
+    def _bridge_gap(self, t_s: float, w1, f1) -> None:
+        """Carry the time line over an IMU gap (see the module docstring): the
+        body rates are interpolated linearly between the last sample before
+        the gap and the first after it, in steps of the nominal interval; each
+        step adds its share of the gap's covariance growth (``_gap_Q``), and
+        so does the new sample's own interval."""
+        t_start = self.t_latest_s
+        last = self._epochs[-1].imu if self._epochs else self._base.imu_prev
+        step_nom = self._last_dt
+        t_end = t_s - step_nom
+        span = t_end - t_start
+        if last is None or span <= 0.0:
+            return
+        n = min(1000, max(1, int(math.ceil(span / step_nom - 1e-9))))
+        h = span / n
+        w0, f0 = last.dtheta_b_rad / last.dt_s, last.dvel_b_mps / last.dt_s
+        t0_rate, t1_rate = t_start - 0.5 * last.dt_s, t_s - 0.5 * step_nom      # mid-interval epochs of the rates
+        self._catch_up()
+        for i in range(1, n + 1):
+            t_i = t_end if i == n else t_start + i * h
+            h_i = t_i - self.t_latest_s
+            a = (t_i - 0.5 * h_i - t0_rate) / (t1_rate - t0_rate)
+            w, f = w0 + a * (w1 - w0), f0 + a * (f1 - f0)
+            self._pending_gap_Q = self._gap_Q(t_i - t_start) - self._gap_Q(t_i - h_i - t_start)
+            self._append_epoch(ImuSample(t_i, h_i, w * h_i, f * h_i))
+            self.counters["imu_bridge_epochs"] += 1
+        self._pending_gap_Q = self._gap_Q(t_s - t_start) - self._gap_Q(t_end - t_start)
+        self.counters["imu_gaps"] += 1
+        self.counters["imu_gap_total_s"] = round(self.counters["imu_gap_total_s"] + (t_s - t_start), 6)
+        self.gaps.append((t_start, t_s))
+
+    def _gap_Q(self, tau: float) -> np.ndarray:
+        """Covariance of the att/vel/pos error tau seconds into a gap from a
+        constant deviation of rate (sigma_w) and specific force (sigma_a):
+        att (sigma_w tau)^2, vel (sigma_a tau)^2, pos (sigma_a tau^2 / 2)^2,
+        pos-vel sigma_a^2 tau^3 / 2."""
+        sa, sw = self.cfg.gap_accel_sigma_mps2, math.radians(self.cfg.gap_rate_sigma_deg_per_s)
+        lay = self.cfg.layout
+        Q = np.zeros((lay.dim, lay.dim))
+        a, v, p = lay.sl("att"), lay.sl("vel"), lay.sl("pos")
+        I3 = np.eye(3)
+        Q[a, a] = (sw * tau) ** 2 * I3
+        Q[v, v] = (sa * tau) ** 2 * I3
+        Q[p, p] = (0.5 * sa * tau * tau) ** 2 * I3
+        Q[p, v] = Q[v, p] = 0.5 * sa * sa * tau**3 * I3
+        return Q
+
+    # ---- processing -----------------------------------------------------------------
     def _catch_up(self) -> None:
-        """Re-process the stored epochs from the earliest one a late
-        measurement touched."""
+        """Re-process the stored epochs from the earliest one a late event touched."""
         if self._dirty_from < len(self._epochs):
-            self.counters["epochs_reprocessed"] += len(self._epochs) - self._dirty_from
-            for k in range(self._dirty_from, len(self._epochs)):
+            k0 = int(self._dirty_from)
+            self.counters["epochs_reprocessed"] += len(self._epochs) - k0
+            for k in range(k0, len(self._epochs)):
                 self._process_epoch(k, self._epochs[k].imu)
-        self._dirty_from = len(self._epochs) + 10**9
+        self._dirty_from = math.inf
+
+    def _append_epoch(self, imu: ImuSample) -> None:
+        Q, self._pending_gap_Q = self._pending_gap_Q, None
+        self._epochs.append(None if Q is None else _Epoch(imu, None, {}, Q))     # carries the gap's inflation
+        self._times.append(imu.t_s)
+        self._process_epoch(len(self._epochs) - 1, imu)
+
+    def _process_epoch(self, k: int, imu: ImuSample) -> None:
+        prev = self._epochs[k - 1] if k > 0 else None
+        if self._at != k - 1:
+            self.kf.restore(prev.snap if prev else self._base)
+        accept = prev.last_accept if prev else self._base_accept
+        old = self._epochs[k]
+        t_prev = self.kf.t_s
+        self.kf.predict(imu)
+        if old is not None and old.extra_Q is not None:
+            self.kf.P = self.kf.P + old.extra_Q
+            self.kf.P_prior = self.kf.P
+        lo = bisect.bisect_right(self._events, (t_prev + _EPS_S,))
+        hi = bisect.bisect_right(self._events, (imu.t_s + _EPS_S,))
+        if lo < hi:
+            ctx = None
+            for t_m, _, _, _, ev in self._events[lo:hi]:
+                if ev.kind == "model_update":
+                    self.kf.apply_model_update(ev.fields)
+                    continue
+                if ctx is None:
+                    ctx = ModelContext.at(self.kf, imu, self.cfg.antenna_lever_arm_b_m)
+                res = self.kf.update(ev.kind, t_m, *self.kf.model(ev, ctx.shifted(t_m - imu.t_s)))
+                if res.accepted:
+                    accept = {**accept, (ev.kind, getattr(ev, "coupling", "aiding")): t_m}
+        ep = _Epoch(imu, self.kf.snapshot(), accept, old.extra_Q if old is not None else None)
+        if self.keep_history:
+            ep.Phi, ep.P_prior, ep.dx = self.kf.last_Phi, self.kf.P_prior, self.kf.epoch_dx
+        self._epochs[k] = ep
+        self._at = k
 
     def release(self, final: bool = False) -> list[Solution]:
-        """Solutions now older than output_delay_s (all of them when final)."""
+        """Solutions now older than output_delay_s (all of them when final), on
+        the output grid t0 + n / output_rate_hz."""
         self._catch_up()
         out = []
         horizon = self.t_latest_s - (0.0 if final else self.cfg.output_delay_s)
-        for ep in self._epochs:
-            t = ep.imu.t_s
-            if t < self._next_output_t - 1e-9:
-                continue
-            if t > horizon + 1e-9:
+        rate = self.cfg.output_rate_hz
+        i = self._released
+        while i < len(self._epochs):
+            t = self._times[i]
+            if t > horizon + _EPS_S:
                 break
-            out.append(self._solution(ep))
-            self._last_released_t = t
-            while self._next_output_t <= t + 1e-9:
-                self._next_output_t += 1.0 / self.cfg.output_rate_hz
+            if t >= self._t0_out + self._n_out / rate - 1e-6:
+                out.append(self._solution(self._epochs[i]))
+                self._last_released_t = t
+                self._n_out = int(math.floor((t - self._t0_out) * rate + 1e-6)) + 1
+            i += 1
+        self._released = i
         return out
 
     def full_history(self) -> list:
@@ -164,65 +318,54 @@ class FusionEngine:
             raise RuntimeError("FusionEngine(keep_history=True) is needed for the smoother")
         return self.history + self._epochs
 
-    # ---- internals --------------------------------------------------------------
+    def mode_now(self) -> tuple[int, tuple]:
+        """(mode, recently accepted kinds) at the latest epoch."""
+        if not self._epochs:
+            return MODE_INITIALIZING, ()
+        return self._mode(self._epochs[-1])
+
+    # ---- internals ------------------------------------------------------------------
     def _reject(self, reason: str):
         self.counters[f"rejected_{reason}"] += 1
         return False, reason
 
-    def _process_epoch(self, k: int, imu: ImuSample) -> None:
-        prev = self._epochs[k - 1] if k > 0 else None
-        self.kf.restore(prev.snap if prev else self._base)
-        last_update = prev.last_update_t_s if prev else self._base_last_update
-        t_prev = self.kf.state.t_s
-        self.kf.predict(imu)
-        lo = bisect.bisect_right(self._meas, (t_prev + 1e-9,))
-        hi = bisect.bisect_right(self._meas, (imu.t_s + 1e-9,))
-        omega_nb_b = self._omega_nb_b(imu)
-        for t_m, kind, _, meas in self._meas[lo:hi]:
-            ctx = ModelContext(np.asarray(self.cfg.antenna_lever_arm_b_m, float), omega_nb_b, t_m - imu.t_s)
-            res = self.kf.update(kind, t_m, *self.kf.model(meas, ctx))
-            if res.accepted:
-                last_update = t_m
-        ep = _Epoch(imu, self.kf.snapshot(), last_update)
-        if self.keep_history:
-            ep.Phi, ep.P_prior, ep.dx = self.kf.last_Phi, self.kf.P_prior, self.kf.epoch_dx
-        if k == len(self._epochs):
-            self._epochs.append(ep)
-            self._times.append(imu.t_s)
-        else:
-            self._epochs[k] = ep
-
-    def _omega_nb_b(self, imu: ImuSample) -> np.ndarray:
-        s = self.kf.state
-        w_in = earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.alt_m, s.vel_enu_mps)
-        return imu.dtheta_b_rad / imu.dt_s - s.gyro_error_b_radps() - s.C_b_n.T @ w_in
-
     def _trim(self) -> None:
         t_min = self.t_latest_s - self.cfg.reprocess_window_s
         n_drop = 0
-        while n_drop < len(self._epochs) - 1 and self._times[n_drop] < t_min \
-                and self._times[n_drop] < self._next_output_t - 1e-9:
+        limit = min(len(self._epochs) - 1, self._released)
+        while n_drop < limit and self._times[n_drop] < t_min:
             n_drop += 1
         if n_drop:
             if self.keep_history:
                 self.history.extend(self._epochs[:n_drop])
             self._base = self._epochs[n_drop - 1].snap
-            self._base_last_update = self._epochs[n_drop - 1].last_update_t_s
+            self._base_accept = self._epochs[n_drop - 1].last_accept
             del self._epochs[:n_drop]
             del self._times[:n_drop]
-            cut = bisect.bisect_right(self._meas, (self._base.state.t_s + 1e-9,))
-            del self._meas[:cut]
+            self._released -= n_drop
+            self._at -= n_drop
+            if self._dirty_from != math.inf:
+                self._dirty_from = max(0, self._dirty_from - n_drop)
+            cut = bisect.bisect_right(self._events, (self._base.t_s + _EPS_S,))
+            del self._events[:cut]
+
+    def _mode(self, ep: _Epoch) -> tuple[int, tuple]:
+        """What the solution runs on: the strongest coupling among the sources
+        accepted within MODE_WINDOW_S (tight > loose > other aiding)."""
+        if ep.snap.n_updates == 0:
+            return MODE_INITIALIZING, ()
+        t = ep.imu.t_s
+        recent = [(kind, coupling) for (kind, coupling), t_a in ep.last_accept.items() if t - t_a <= MODE_WINDOW_S]
+        if not recent:
+            return MODE_INS_ONLY, ()
+        modes = {_COUPLING_MODE.get(c, MODE_AIDED) for _, c in recent}
+        mode = next(m for m in (MODE_TIGHTLY_COUPLED, MODE_LOOSELY_COUPLED, MODE_AIDED) if m in modes)
+        return mode, tuple(sorted({k for k, _ in recent}))
 
     def _solution(self, ep: _Epoch) -> Solution:
         snap = ep.snap
-        t = ep.imu.t_s
-        if snap.n_updates == 0:
-            mode = MODE_INITIALIZING
-        elif t - ep.last_update_t_s > 1.0:
-            mode = MODE_INS_ONLY
-        else:
-            mode = MODE_LOOSELY_COUPLED
-        s = snap.state
-        return Solution(t, s.copy(), snap.P.copy(), mode, snap.n_updates, snap.n_rejected, snap.last_nis,
-                        ep.imu.dtheta_b_rad / ep.imu.dt_s - s.gyro_error_b_radps(),
-                        ep.imu.dvel_b_mps / ep.imu.dt_s - s.accel_bias_b_mps2)
+        mode, kinds = self._mode(ep)
+        state = self.kf.snapshot_state(snap)
+        dth, dv = self.kf.corrected(ep.imu.dtheta_b_rad, ep.imu.dvel_b_mps, ep.imu.dt_s, snap.values)
+        return Solution(ep.imu.t_s, state, self.kf.P_enu(snap), mode, snap.n_updates, snap.n_rejected,
+                        snap.last_nis, dth / ep.imu.dt_s, dv / ep.imu.dt_s, kinds)

@@ -2,6 +2,14 @@
 state, residual = predicted - measured (STYLE pattern 4). The filter loop
 does gating, the Joseph update and bookkeeping for all of them.
 
+Models are written once, frame-neutral: on the geodetic/ENU view of the
+state (``NavState``), with H in the ENU error convention (att phi ENU rad,
+vel ENU m/s, pos ENU m, other blocks as ``core.state_layout``). Every
+filter maps H into its own error state (``ErrorStateKF.model``), so the ENU
+and the LCI filter accept every model. ``coupling`` says what kind of aiding
+a model is ("loose" GNSS, "tight" GNSS, other "aiding"), for the solution's
+mode.
+
 GNSS loosely coupled models with antenna lever arm l_b (body FLU, m):
     r_ant = r + C_b_n l_b                       (position, ENU metres)
     v_ant = v + C_b_n (omega_nb_b x l_b)         (velocity, ENU m/s)
@@ -27,6 +35,7 @@ class GnssPosition:
     alt_m: float
     cov_enu_m2: np.ndarray
     kind: str = "gnss_pos"
+    coupling = "loose"
 
     def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
         l_n = state.C_b_n @ ctx.lever_arm_b_m
@@ -46,6 +55,7 @@ class GnssVelocity:
     vel_enu_mps: np.ndarray
     cov_enu_m2ps2: np.ndarray
     kind: str = "gnss_vel"
+    coupling = "loose"
 
     def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
         lever_vel_b = np.cross(ctx.omega_nb_b_radps, ctx.lever_arm_b_m)
@@ -67,6 +77,7 @@ class BaroHeight:
     alt_m: float
     var_m2: float
     kind: str = "baro"
+    coupling = "aiding"
 
     def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
         H = np.zeros((1, layout.dim))
@@ -84,6 +95,7 @@ class HorizontalFix:
     lon_rad: float
     cov_en_m2: np.ndarray
     kind: str = "horizontal_fix"
+    coupling = "aiding"
 
     def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
         d = earth.position_error_enu_m(state.lat_rad, state.lon_rad, state.alt_m,
@@ -96,13 +108,43 @@ class HorizontalFix:
         return residual, H, self.cov_en_m2
 
 
-@dataclass(frozen=True)
 class ModelContext:
-    """Quantities a model needs besides the state: the antenna lever arm, the
-    body rate relative to ENU, and the measurement epoch minus state epoch."""
-    lever_arm_b_m: np.ndarray
-    omega_nb_b_radps: np.ndarray
-    dt_to_meas_s: float
+    """Quantities a model needs besides the state: the antenna lever arm
+    (body FLU, m), the body rate relative to ENU (rad/s, body axes; computed
+    once per epoch, only when a model asks for it) and the measurement epoch
+    minus the state epoch (s)."""
+    __slots__ = ("lever_arm_b_m", "_omega", "dt_to_meas_s")
+
+    def __init__(self, lever_arm_b_m, omega_nb_b_radps=None, dt_to_meas_s: float = 0.0):
+        self.lever_arm_b_m = np.asarray(lever_arm_b_m, float)
+        # a shared one-element box: a value, or a callable computing it
+        self._omega = omega_nb_b_radps if isinstance(omega_nb_b_radps, list) else \
+            [np.zeros(3) if omega_nb_b_radps is None else np.asarray(omega_nb_b_radps, float)]
+        self.dt_to_meas_s = float(dt_to_meas_s)
+
+    @property
+    def omega_nb_b_radps(self) -> np.ndarray:
+        if callable(self._omega[0]):
+            self._omega[0] = self._omega[0]()
+        return self._omega[0]
+
+    def shifted(self, dt_to_meas_s: float) -> "ModelContext":
+        """The same context for a measurement dt_to_meas_s after the state epoch."""
+        return ModelContext(self.lever_arm_b_m, self._omega, dt_to_meas_s)
+
+    @classmethod
+    def at(cls, kf, imu, lever_arm_b_m) -> "ModelContext":
+        """Context at a filter's current epoch (after its predict), whose last
+        IMU interval is ``imu``:
+        omega_nb_b = corrected omega_ib_b - C_b_n^T (omega_ie_n + omega_en_n)."""
+        t, x, vals = kf.t_s, kf.x_nav, kf.values
+
+        def omega():
+            s = kf.view(t, x, vals)
+            w_ib = kf.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, vals)[0] / imu.dt_s
+            w_in = earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.alt_m, s.vel_enu_mps)
+            return w_ib - s.C_b_n.T @ w_in
+        return cls(lever_arm_b_m, [omega], 0.0)
 
 
 def is_finite(meas) -> bool:

@@ -37,19 +37,28 @@ def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,
 
     ``imu_prev`` supplies the previous interval for the coning/sculling terms
     (None at the first step). ``vel_prev_enu_mps`` is the velocity one step
-    before ``state``, used to extrapolate the mid-interval velocity.
+    before ``state``, used to extrapolate the mid-interval velocity. Both
+    intervals are corrected with the state's current IMU error estimates.
     """
-    dt = imu.dt_s
     dth, dv = compensate(imu, state)
     if imu_prev is None:
-        dth_p = np.zeros(3)
-        dv_p = np.zeros(3)
+        dth_p = dv_p = np.zeros(3)
     else:
         dth_p, dv_p = compensate(imu_prev, state)
-    lat, lon, alt = state.lat_rad, state.lon_rad, state.alt_m
-    v0 = state.vel_enu_mps
+    v_prev = state.vel_enu_mps if vel_prev_enu_mps is None else vel_prev_enu_mps
+    lat1, lon1, alt1, v1, C1 = step(state.lat_rad, state.lon_rad, state.alt_m, state.vel_enu_mps, state.C_b_n,
+                                    v_prev, dth, dv, dth_p, dv_p, imu.dt_s)
+    return NavState(t_s=imu.t_s, lat_rad=lat1, lon_rad=lon1, alt_m=alt1, vel_enu_mps=v1, C_b_n=C1,
+                    gyro_bias_b_radps=state.gyro_bias_b_radps, accel_bias_b_mps2=state.accel_bias_b_mps2,
+                    extra=state.extra)
+
+
+def step(lat, lon, alt, v0, C_b_n, v_prev, dth, dv, dth_p, dv_p, dt):
+    """The navigation equations over one interval from error-corrected
+    increments (dth, dv) and those of the previous interval (dth_p, dv_p;
+    zeros at the first step): returns (lat, lon, alt, vel_enu, C_b_n) at the
+    end. Longitude is wrapped to [-pi, pi)."""
     # --- velocity: extrapolate position/velocity to mid-interval
-    v_prev = v0 if vel_prev_enu_mps is None else vel_prev_enu_mps
     v_mid_ex = 1.5 * v0 - 0.5 * v_prev
     rates = earth.geodetic_rates(lat, alt, v0)
     lat_m, alt_m = lat + 0.5 * dt * rates[0], alt + 0.5 * dt * rates[2]
@@ -57,7 +66,7 @@ def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,
     w_en = earth.omega_en_n(lat_m, alt_m, v_mid_ex)
     zeta = (w_ie + w_en) * dt
     dv_f_b = sculling_velocity_increment(dth, dv, dth_p, dv_p)
-    dv_f_n = (np.eye(3) - 0.5 * skew(zeta)) @ state.C_b_n @ dv_f_b
+    dv_f_n = (np.eye(3) - 0.5 * skew(zeta)) @ C_b_n @ dv_f_b
     g_n = earth.gravity_n(lat_m, alt_m)
     dv_g = (g_n - cross3(2.0 * w_ie + w_en, v_mid_ex)) * dt
     v1 = v0 + dv_f_n + dv_g
@@ -69,12 +78,9 @@ def propagate(state: NavState, imu: ImuSample, imu_prev: ImuSample | None,
     lat1 = lat + v_mid[1] / (r_m + alt_mid) * dt
     lat_mid = 0.5 * (lat + lat1)
     _, r_n = earth.radii(lat_mid)
-    lon1 = lon + v_mid[0] / ((r_n + alt_mid) * np.cos(lat_mid)) * dt
+    lon1 = earth.wrap_lon_rad(lon + v_mid[0] / ((r_n + alt_mid) * np.cos(lat_mid)) * dt)
     # --- attitude: body rotation with coning, nav-frame rotation at mid-interval
     phi_b = coning_rotation_vector(dth, dth_p)
     zeta = (earth.omega_ie_n(lat_mid) + earth.omega_en_n(lat_mid, alt_mid, v_mid)) * dt
-    C1 = rotvec_to_C(-zeta) @ state.C_b_n @ rotvec_to_C(phi_b)
-    return NavState(t_s=imu.t_s, lat_rad=lat1, lon_rad=lon1, alt_m=alt1, vel_enu_mps=v1,
-                    C_b_n=orthonormalize(C1), gyro_bias_b_radps=state.gyro_bias_b_radps,
-                    accel_bias_b_mps2=state.accel_bias_b_mps2, extra=state.extra)
-
+    C1 = rotvec_to_C(-zeta) @ C_b_n @ rotvec_to_C(phi_b)
+    return lat1, lon1, alt1, v1, orthonormalize(C1)

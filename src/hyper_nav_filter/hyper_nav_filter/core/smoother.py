@@ -23,34 +23,28 @@ from .eskf import ErrorStateKF
 from .fusion import Solution
 
 
-def rts_smooth(history: list, cfg: FilterConfig, filt: ErrorStateKF | None = None) -> list[Solution]:
+def rts_smooth(history: list, cfg: FilterConfig, filt: ErrorStateKF) -> list[Solution]:
     """Smoothed solutions for every epoch of a forward pass (FusionEngine
-    with keep_history=True; pass ``engine.full_history()``).
+    with keep_history=True; pass ``engine.full_history()`` and the forward
+    filter ``engine.kf``).
 
-    The recursion runs in the forward filter's own error frame: ENU for
-    ``ErrorStateKF``, LCI for ``LciErrorStateKF`` (its snapshots carry the
-    LCI covariance, and ``last_Phi``/``P_prior``/``epoch_dx`` are LCI). Pass
-    the forward filter as ``filt`` (``engine.kf``; required for LCI, whose
-    launch frame it holds): it is used to apply the corrections and is left
-    restored to its final state. The returned solutions are in the ENU view."""
+    The recursion runs in the forward filter's own error frame (its
+    snapshots, ``Phi``, ``P_prior`` and corrections are in it); the filter is
+    used to apply the corrections and is left restored to its final state.
+    The returned solutions are the geodetic/ENU view with the ENU covariance."""
     n = len(history)
     if n == 0:
         return []
-    if filt is None:
-        if cfg.mechanization_frame != "ENU":
-            raise ValueError("rts_smooth: pass the forward filter (engine.kf) for a "
-                             f"{cfg.mechanization_frame} filter")
-        filt = ErrorStateKF(cfg, history[-1].snap.state.copy(), history[-1].snap.P.copy())
     final = filt.snapshot()
-    own_P = (lambda snap: snap.P_lci) if hasattr(final, "P_lci") else (lambda snap: snap.P)
     out: list[Solution | None] = [None] * n
     e = np.zeros(cfg.layout.dim)
-    Ps = own_P(history[-1].snap).copy()
-    out[-1] = _solution(history[-1], history[-1].snap.state.copy(), history[-1].snap.P.copy())
+    last = history[-1]
+    Ps = last.snap.P
+    out[-1] = _solution(filt, last, filt.snapshot_state(last.snap), filt.P_enu(last.snap), last.snap.values)
     for k in range(n - 2, -1, -1):
         h, h1 = history[k], history[k + 1]
-        P_post = own_P(h.snap)
-        c_next = -h1.dx
+        P_post = h.snap.P
+        c_next = 0.0 if h1.dx is None else -h1.dx
         # A = P+ Phi^T (P-)^-1  computed as solve(P-, Phi P+)^T (P- symmetric positive definite)
         A = cho_solve(cho_factor(h1.P_prior), h1.Phi @ P_post).T
         e = A @ (e + c_next)
@@ -59,12 +53,12 @@ def rts_smooth(history: list, cfg: FilterConfig, filt: ErrorStateKF | None = Non
         filt.restore(h.snap)
         filt.inject(-e)                        # move the filtered estimate by +e
         filt.P = Ps
-        out[k] = _solution(h, filt.state.copy(), filt.P_enu() if hasattr(filt, "P_enu") else Ps.copy())
+        out[k] = _solution(filt, h, filt.state, filt.P_enu(), filt.values)
     filt.restore(final)
     return out
 
 
-def _solution(ep, state, P) -> Solution:
+def _solution(filt, ep, state, P, values) -> Solution:
+    dth, dv = filt.corrected(ep.imu.dtheta_b_rad, ep.imu.dvel_b_mps, ep.imu.dt_s, values)
     return Solution(ep.imu.t_s, state, P, 0, ep.snap.n_updates, ep.snap.n_rejected, ep.snap.last_nis,
-                    ep.imu.dtheta_b_rad / ep.imu.dt_s - state.gyro_error_b_radps(),
-                    ep.imu.dvel_b_mps / ep.imu.dt_s - state.accel_bias_b_mps2)
+                    dth / ep.imu.dt_s, dv / ep.imu.dt_s)

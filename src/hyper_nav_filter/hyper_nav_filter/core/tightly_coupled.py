@@ -44,6 +44,7 @@ class Pseudoranges:
     rate_mps: np.ndarray
     rate_var_m2ps2: np.ndarray
     kind: str = "pseudorange"
+    coupling = "tight"
 
     def model(self, state: NavState, layout: StateLayout, ctx):
         if not layout.has("clk"):

@@ -1,69 +1,86 @@
-"""Fusion node: the ESKF engine on live IMU and GNSS messages.
+"""Fusion node: the ESKF engine on live messages from declared sources.
 
-Subscribes ``imu/data_raw`` (sensor_msgs/Imu) and, with ``filter.gnss_mode``
-``loose`` (default), ``gnss/fix`` (NavSatFix) and ``gnss/vel``
-(TwistWithCovarianceStamped, ENU); with ``tight``, ``gnss/raw``
-(hyper_nav_msgs/GnssMeasurements) and ``gnss/ephemeris``
-(hyper_nav_msgs/GnssEphemeris, reliable + transient local) instead, turned
-into pseudorange updates (``core.gnss.raw_to_pseudoranges``; the filter
-needs the ``clk`` state block; receiver corrections from the ``gnss.*``
-parameters, see ``TIGHT_GNSS_PARAMETERS``). Publishes ``nav/state``
-(hyper_nav_msgs/NavState), ``nav/odom`` (nav_msgs/Odometry), ``nav/fix``
-(NavSatFix) and ``/diagnostics``. All math is in ``hyper_nav_filter.core``.
+Inputs are the ``sources`` table (``hyper_nav_filter.sources``; ROS
+parameters ``sources`` and ``sources.<id>.type|topic|qos|...``, written by
+``run_graph`` from the scenario's ``filter.sources``): each source subscribes
+its topic(s) with its QoS and converts messages to core measurements, IMU
+samples or model updates. Publishes ``nav/state`` (hyper_nav_msgs/NavState),
+``nav/odom`` (nav_msgs/Odometry), ``nav/fix`` (NavSatFix) and
+``/diagnostics`` (counters per input topic, gate statistics, mode and the
+sources it runs on, stream liveness, heartbeat). All math is in
+``hyper_nav_filter.core``; parameters are declared once with descriptors
+(``core.params``).
 """
 from __future__ import annotations
 
-from dataclasses import fields
+import importlib
+import time
 
 import numpy as np
-import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import TwistWithCovarianceStamped
-from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from hyper_nav_msgs.msg import NavState as NavStateMsg
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from sensor_msgs.msg import Imu, NavSatFix
+from sensor_msgs.msg import NavSatFix
 
-from .. import conversions
 from ..core.attitude import quat_xyzw_to_C
-from ..core.config import FilterConfig
-from ..core.fusion import FusionEngine
-from ..core.gnss.raw_to_pseudoranges import TIGHT_GNSS_PARAMETERS, check_gnss_mode, tight_gnss_input
+from ..core.config import ALL_PARAMS, FilterConfig
+from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.nav_state import NavState
+from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, nonneg, positive
 from ..output import OutputFrames, navsatfix_fields, navstate_fields, odometry_fields
-from ..ros_util import all_matched, diagnostic_array, latched_qos, publisher_qos, run_node, subscriber_qos
-from ..tight_input import TightGnssHandler
+from ..ros_util import all_matched, declare_params, diagnostic_array, latched_qos, publisher_qos, run_node, \
+    subscriber_qos
+from ..sources import REGISTRY, table_from_params
+from ..sources.router import SourceRouter
+
+NODE_PARAMS = (
+    ParamSpec("init.t_s", FLOAT, 0.0, "epoch of the initial state (sim time, s)"),
+    ParamSpec("init.lat_deg", FLOAT, 0.0, "initial latitude (deg)", lo=-90.0, hi=90.0),
+    ParamSpec("init.lon_deg", FLOAT, 0.0, "initial longitude (deg)", lo=-360.0, hi=360.0),
+    ParamSpec("init.alt_m", FLOAT, 0.0, "initial height above the WGS-84 ellipsoid (m)"),
+    ParamSpec("init.vel_enu_mps", FLOATS, (0.0, 0.0, 0.0), "initial velocity w.r.t. Earth, ENU (m/s)", length=3),
+    ParamSpec("init.q_b_enu_xyzw", FLOATS, (0.0, 0.0, 0.0, 1.0), "initial attitude body(FLU) -> ENU, quaternion",
+              length=4),
+    ParamSpec("frames.map", STR, "map", "REP-105 map frame (ENU tangent plane at the origin)"),
+    ParamSpec("frames.enu", STR, "enu", "local-level frame of nav/state"),
+    ParamSpec("frames.body", STR, "base_link", "body frame (FLU)"),
+    ParamSpec("origin.lat_deg", FLOAT, float("nan"), "map origin latitude (deg); NaN = the initial position"),
+    ParamSpec("origin.lon_deg", FLOAT, float("nan"), "map origin longitude (deg)"),
+    ParamSpec("origin.alt_m", FLOAT, float("nan"), "map origin height (m)"),
+    ParamSpec("qos.depth", INT, 2000, "KEEP_LAST depth of reliable subscriptions and publishers", lo=1, hi=100000),
+    ParamSpec("min_output_subscribers", INT, 0, "wait for this many subscribers on every output before "
+              "subscribing to the inputs", lo=0, hi=100),
+    positive("diagnostics_period_s", FLOAT, 1.0, "period of /diagnostics (wall s)"),
+    positive("liveness.aiding_timeout_s", FLOAT, 5.0, "an aiding stream silent this long in sim time, while the "
+             "IMU runs, is reported stale (WARN)"),
+    positive("liveness.imu_timeout_s", FLOAT, 3.0, "no IMU message for this long (wall s) after the first is "
+             "reported (WARN)"),
+    ParamSpec("publish_final_solutions", BOOL, True, "release and publish the last output_delay_s of solutions "
+              "at shutdown"),
+)
+_OUTPUTS = ("nav/state", "nav/odom", "nav/fix")
+
+
+def message_class(type_name: str):
+    """``pkg/msg/Name`` -> the rclpy message class."""
+    pkg, _, name = type_name.split("/")
+    return getattr(importlib.import_module(f"{pkg}.msg"), name)
 
 
 class FusionNode(Node):
     def __init__(self):
         super().__init__("fusion")
-        cfg = {}
-        for f in fields(FilterConfig):
-            if f.init:
-                default = list(f.default) if isinstance(f.default, tuple) else f.default
-                cfg[f.name] = self.declare_parameter(f"filter.{f.name}", default).value
-        self.cfg = FilterConfig.from_dict(cfg)
-        self.gnss_mode = self.declare_parameter("filter.gnss_mode", "loose").value
-        check_gnss_mode(self.gnss_mode, self.cfg)
-        p = {name: self.declare_parameter(name, default).value for name, default in [
-            ("init.t_s", 0.0), ("init.lat_deg", 0.0), ("init.lon_deg", 0.0), ("init.alt_m", 0.0),
-            ("init.vel_enu_mps", [0.0, 0.0, 0.0]), ("init.q_b_enu_xyzw", [0.0, 0.0, 0.0, 1.0]),
-            ("frames.map", "map"), ("frames.enu", "enu"), ("frames.body", "base_link"),
-            ("origin.lat_deg", float("nan")), ("origin.lon_deg", float("nan")), ("origin.alt_m", float("nan")),
-            ("qos.depth", 2000), ("qos.reliable_subscriptions", True), ("min_output_subscribers", 0),
-            ("diagnostics_period_s", 1.0)]}
-        self.p = p
+        cfg = declare_params(self, ALL_PARAMS, "filter.", "filter.")
+        self.cfg = FilterConfig(**cfg)
+        self.p = declare_params(self, NODE_PARAMS)
+        p = self.p
+        self.table = self._declare_sources()
         init = NavState(p["init.t_s"], np.deg2rad(p["init.lat_deg"]), np.deg2rad(p["init.lon_deg"]),
                         p["init.alt_m"], np.asarray(p["init.vel_enu_mps"], float),
                         quat_xyzw_to_C(p["init.q_b_enu_xyzw"]))
         self.engine = FusionEngine(self.cfg, init)
-        self.tight = None
-        if self.gnss_mode == "tight":
-            tp = {name: self.declare_parameter(name, default).value
-                  for name, default in TIGHT_GNSS_PARAMETERS.items()}
-            self.tight = TightGnssHandler(self.engine, tight_gnss_input(tp))
+        self.router = SourceRouter(self.engine, self.table)
         origin = [p["origin.lat_deg"], p["origin.lon_deg"], p["origin.alt_m"]]
         if not np.all(np.isfinite(origin)):
             origin = [p["init.lat_deg"], p["init.lon_deg"], p["init.alt_m"]]
@@ -74,10 +91,33 @@ class FusionNode(Node):
         self.pub_odom = self.create_publisher(Odometry, "nav/odom", qos)
         self.pub_fix = self.create_publisher(NavSatFix, "nav/fix", qos)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
-        self.counts = {f"published {t}": 0 for t in ("nav/state", "nav/odom", "nav/fix")}
+        self.counts = {f"published {t}": 0 for t in _OUTPUTS}
         self._subs = []
+        self._last_imu_wall = None
+        self._last_msg_t = {}            # source id -> filter time of its last processed message
+        self._heartbeat = 0
         self._wait_timer = self.create_timer(0.05, self._start_when_ready)
         self.create_timer(p["diagnostics_period_s"], self._publish_diagnostics)
+
+    def _declare_sources(self) -> dict:
+        """The sources table from the flat parameters (declared with descriptors)."""
+        ids = self.declare_parameter("sources", ["imu", "gnss_fix", "gnss_vel"]).value
+        values = {"sources": list(ids)}
+        for sid in ids:
+            base = [ParamSpec(f"sources.{sid}.{k}", STR, d, desc) for k, d, desc in (
+                ("type", "", "registered source type"), ("topic", "", "input topic"),
+                ("qos", "reliable", "reliable or sensor_data"), ("msg", "", "ROS message type (default: the type's)"))]
+            for s in base:
+                values[s.name] = self.declare_parameter(s.name, s.default).value
+            cls = REGISTRY.get(values[f"sources.{sid}.type"])
+            if cls is None:
+                raise ConfigError(f"sources.{sid}.type: unknown source type {values[f'sources.{sid}.type']!r} "
+                                  f"(known: {sorted(REGISTRY)})")
+            values.update({f"sources.{sid}.{k}": v for k, v in
+                           declare_params(self, cls.PARAMS, f"sources.{sid}.").items()})
+            if not values[f"sources.{sid}.msg"]:
+                values[f"sources.{sid}.msg"] = None
+        return table_from_params(lambda name, default: values.get(name, default))
 
     def _start_when_ready(self):
         """Subscribe to inputs only once every output has its subscribers, so
@@ -85,47 +125,31 @@ class FusionNode(Node):
         if not all_matched([self.pub_state, self.pub_odom, self.pub_fix], self.p["min_output_subscribers"]):
             return
         self._wait_timer.cancel()
-        qos = subscriber_qos(self.p["qos.reliable_subscriptions"], self.p["qos.depth"])
-        self._subs = [self.create_subscription(Imu, "imu/data_raw", self._on_imu, qos)]
-        if self.tight is None:
-            self._subs += [self.create_subscription(NavSatFix, "gnss/fix", self._on_fix, qos),
-                           self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._on_vel, qos)]
-        else:
-            # ephemerides first: when both are ready, the executor takes them in creation order
-            self._subs += [self.create_subscription(GnssEphemeris, "gnss/ephemeris", self._on_ephemeris,
-                                                    latched_qos(max(int(self.p["qos.depth"]), 500))),
-                           self.create_subscription(GnssMeasurements, "gnss/raw", self._on_raw, qos)]
-        self.get_logger().info("outputs matched; subscribed to " + ", ".join(s.topic_name for s in self._subs))
+        depth = self.p["qos.depth"]
+        # latched inputs (ephemerides) first: when both are ready, the executor takes them in creation order
+        pairs = [(src, inp) for src in self.router.sources for inp in src.inputs()]
+        for src, inp in sorted(pairs, key=lambda si: not si[1].latched):
+            qos = latched_qos(max(depth, 500)) if inp.latched else \
+                subscriber_qos(src.spec.qos == "reliable", depth)
+            cb = (lambda msg, s=src, r=inp.role: self._on_message(s, r, msg))
+            self._subs.append(self.create_subscription(message_class(inp.msg_type), inp.topic, cb, qos))
+        self.get_logger().info("outputs matched; sources: " + ", ".join(
+            f"{s.id} ({s.spec.type}) <- {', '.join(i.topic for i in s.inputs())}" for s in self.router.sources))
 
-    def _on_imu(self, msg):
-        self.engine.counters["imu_msgs"] += 1
-        self.engine.add_imu_rates(*conversions.imu_rates(msg))
-        if self.tight is not None:
-            self.tight.feed()
-        self._publish(self.engine.release())
-
-    def _on_raw(self, msg):
-        self._warn(self.tight.on_raw(msg))
-
-    def _on_ephemeris(self, msg):
-        self._warn(self.tight.on_ephemeris(msg))
-
-    def _warn(self, reason):
-        if reason is not None:
-            self.get_logger().warning(f"rejected: {reason}", throttle_duration_sec=5.0)
-
-    def _on_fix(self, msg):
-        self.engine.counters["gnss_fix_msgs"] += 1
-        self.engine.add_measurement(conversions.gnss_position(msg))
-
-    def _on_vel(self, msg):
-        self.engine.counters["gnss_vel_msgs"] += 1
-        self.engine.add_measurement(conversions.gnss_velocity(msg))
+    def _on_message(self, src, role, msg):
+        if src.drives_time:
+            self._last_imu_wall = time.monotonic()
+        reason, sols = self.router.handle(src, role, msg)
+        if reason is None and not src.drives_time:
+            self._last_msg_t[src.id] = self.engine.t_latest_s
+        elif reason is not None:
+            self.get_logger().warning(f"{src.id}: rejected {role} message: {reason}", throttle_duration_sec=5.0)
+        self._publish(sols)
 
     def _publish(self, solutions):
         for sol in solutions:
             m = NavStateMsg()
-            _assign(m, navstate_fields(sol, self.cfg.layout, self.frames))
+            _assign(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
             self.pub_state.publish(m)
             o = Odometry()
             _assign(o, odometry_fields(sol, self.cfg.layout, self.frames))
@@ -133,30 +157,55 @@ class FusionNode(Node):
             f = NavSatFix()
             _assign(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
             self.pub_fix.publish(f)
-            for t in ("nav/state", "nav/odom", "nav/fix"):
+            for t in _OUTPUTS:
                 self.counts[f"published {t}"] += 1
 
     def on_shutdown(self):
-        """Final /diagnostics on SIGINT/SIGTERM (ros_util.run_node): its
-        published counts are the node's last word, matched by the recorder."""
+        """At SIGINT/SIGTERM (ros_util.run_node): publish the solutions still
+        held back by output_delay_s, then the final /diagnostics (its
+        published counts are the node's last word, matched by the recorder)."""
+        if self.p["publish_final_solutions"] and self._subs:
+            self._publish(self.engine.release(final=True))
         self._publish_diagnostics()
 
+    def _liveness(self) -> list[str]:
+        """Problems with the input streams, for the diagnostics message."""
+        problems = []
+        now = time.monotonic()
+        if self._last_imu_wall is not None and now - self._last_imu_wall > self.p["liveness.imu_timeout_s"]:
+            problems.append(f"no IMU for {now - self._last_imu_wall:.1f} s")
+        t = self.engine.t_latest_s
+        for src in self.router.sources:
+            if src.drives_time or src.id not in self._last_msg_t:
+                continue
+            silent = t - self._last_msg_t[src.id]
+            if silent > self.p["liveness.aiding_timeout_s"]:
+                problems.append(f"{src.id} ({src.spec.topic}) silent for {silent:.1f} s")
+        return problems
+
     def _publish_diagnostics(self):
-        c = dict(self.engine.counters)
+        self._heartbeat += 1
+        eng, kf = self.engine, self.engine.kf
+        c = dict(eng.counters)
         c.update(self.counts)
-        c["n_updates"] = self.engine.kf.n_updates
-        c["n_rejected_gate"] = self.engine.kf.n_rejected
-        c["last_nis"] = f"{self.engine.kf.last_nis:.3f}"
-        c["gnss_mode"] = self.gnss_mode
-        if self.tight is not None:
-            c.update(self.tight.diagnostics())
-        for kind, (acc, rej, nis_sum) in self.engine.kf.stats.items():
+        c.update(self.router.diagnostics())
+        mode, kinds = eng.mode_now()
+        c.update({"heartbeat": self._heartbeat, "mode": MODE_NAMES[mode], "mode_sources": ",".join(kinds),
+                  "n_updates": kf.n_updates, "n_rejected_gate": kf.n_rejected, "last_nis": f"{kf.last_nis:.3f}",
+                  "filter_time_s": f"{eng.t_latest_s:.3f}", "sources": ",".join(s.id for s in self.router.sources)})
+        for kind, (acc, rej, nis_sum) in kf.stats.items():
             c[f"{kind}_accepted"] = acc
             c[f"{kind}_gated"] = rej
             c[f"{kind}_mean_nis_per_dof"] = f"{nis_sum / max(acc, 1):.3f}"
+        problems = self._liveness()
         rejected = sum(v for k, v in c.items() if str(k).startswith("rejected_"))
-        self.pub_diag.publish(diagnostic_array(self, "hyper_nav_filter: fusion", rejected == 0,
-                                               f"{rejected} input messages rejected", c))
+        if eng.counters.get("imu_gaps"):
+            problems.append(f"{eng.counters['imu_gaps']} IMU gap(s) bridged, last {eng.gaps[-1][0]:.2f}-"
+                            f"{eng.gaps[-1][1]:.2f} s")
+        arr = diagnostic_array(self, "hyper_nav_filter: fusion", rejected == 0 and not problems,
+                               "; ".join(problems + [f"{rejected} input messages rejected",
+                                                     f"mode: {MODE_NAMES[mode]}"]), c)
+        self.pub_diag.publish(arr)
 
 
 def _assign(msg, values: dict):

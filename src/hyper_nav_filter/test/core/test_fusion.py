@@ -79,7 +79,7 @@ def test_bad_input_is_rejected_and_counted():
     assert eng.add_imu(0.02, [0, 0, 0], [0, 0, 9.8 * 0.02])[0]
     assert eng.add_imu(0.04, [np.nan, 0, 0], [0, 0, 0.2]) == (False, "imu_nan")
     assert eng.add_imu(0.01, [0, 0, 0], [0, 0, 0.2]) == (False, "imu_out_of_order")
-    assert eng.add_imu(0.02, [0, 0, 0], [0, 0, 0.2]) == (False, "imu_out_of_order")
+    assert eng.add_imu(0.02, [0, 0, 0], [0, 0, 0.2]) == (False, "imu_duplicate")
     fix = GnssPosition(0.02, np.nan, 0.0, 0.0, np.eye(3))
     assert eng.add_measurement(fix) == (False, "gnss_pos_nan")
     for k in range(2, 200):
@@ -88,8 +88,8 @@ def test_bad_input_is_rejected_and_counted():
     stale = GnssVelocity(0.02, np.zeros(3), np.eye(3))
     assert eng.add_measurement(stale) == (False, "gnss_vel_stale")
     c = eng.counters
-    assert (c["rejected_imu_nan"], c["rejected_imu_out_of_order"], c["rejected_gnss_pos_nan"],
-            c["rejected_gnss_vel_stale"]) == (1, 2, 1, 1)
+    assert (c["rejected_imu_nan"], c["rejected_imu_out_of_order"], c["rejected_imu_duplicate"],
+            c["rejected_gnss_pos_nan"], c["rejected_gnss_vel_stale"]) == (1, 1, 1, 1, 1)
     assert c["imu_accepted"] == 199
 
 
@@ -117,7 +117,8 @@ def test_rts_smoother_beats_the_filter_on_the_default_scenario(frame):
     hist = eng.full_history()
     assert len(hist) == 3000
     from hyper_nav_filter.core.fusion import Solution
-    filt = [Solution(h.imu.t_s, h.snap.state, h.snap.P, 0, 0, 0, 0.0, np.zeros(3), np.zeros(3)) for h in hist]
+    filt = [Solution(h.imu.t_s, eng.kf.snapshot_state(h.snap), eng.kf.P_enu(h.snap), 0, 0, 0, 0.0, np.zeros(3),
+                     np.zeros(3)) for h in hist]
     final_state = eng.kf.state.copy()
     smooth = rts_smooth(hist, cfg, eng.kf)
     f_pos, f_vel, f_att = errors(filt, traj, 10.0)
@@ -128,4 +129,4 @@ def test_rts_smoother_beats_the_filter_on_the_default_scenario(frame):
     assert s_pos < 0.8 * f_pos and s_vel < 0.8 * f_vel and s_att < f_att
     lay = sc.filter_config().layout
     mid = len(hist) // 2
-    assert np.trace(smooth[mid].P[lay.sl("pos"), lay.sl("pos")]) < np.trace(hist[mid].snap.P[lay.sl("pos"), lay.sl("pos")])
+    assert np.trace(smooth[mid].P[lay.sl("pos"), lay.sl("pos")]) < np.trace(filt[mid].P[lay.sl("pos"), lay.sl("pos")])

@@ -1,6 +1,6 @@
 """Raw receiver epochs + broadcast ephemerides -> corrected pseudoranges
 (core.gnss.raw_to_pseudoranges), the message conversions and the tightly
-coupled input of the fusion node (tight_input), without ROS.
+coupled input of the fusion node (the ``gnss_raw`` declared source), without ROS.
 
 The observables come from the simulator (hyper_nav_sim.core.gnss, noise-free)
 on the nominal GPS + BDS constellation; the receiver side must undo exactly
@@ -19,13 +19,11 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.gnss.ephemeris import shift_ephemeris
 from hyper_nav_filter.core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
 from hyper_nav_filter.core.gnss.raw_to_pseudoranges import (EphemerisStore, MalformedGnssInput, RawGnssEpoch,
-                                                            ReceiverCorrections, TightGnssInput,
-                                                            check_gnss_mode, raw_to_pseudoranges,
-                                                            tight_gnss_input)
+                                                            ReceiverCorrections, TightGnssInput, raw_to_pseudoranges)
 from hyper_nav_filter.core.measurements import ModelContext
 from hyper_nav_filter.core.nav_state import NavState
 from hyper_nav_filter.core.state_layout import StateLayout
-from hyper_nav_filter.tight_input import TightGnssHandler
+from hyper_nav_filter.sources import make_sources, parse_sources
 from hyper_nav_sim.core.gnss.constellation import visible_satellites
 from hyper_nav_sim.core.gnss.nominal import gpst_from_date, nominal_constellation
 from hyper_nav_sim.core.gnss.observables import compute_observables
@@ -190,74 +188,97 @@ def test_message_conversions_round_trip(sky):
         np.testing.assert_array_equal(getattr(back, name), getattr(raw, name))
 
 
-def test_handler_rejects_and_counts_malformed_messages_and_waits_for_ephemerides(sky):
+def gnss_raw_source(cfg, **params):
+    table = {"imu": {"type": "imu", "topic": "imu/data_raw"},
+             "gnss_raw": {"type": "gnss_raw", "topic": "gnss/raw", **params}}
+    return make_sources(parse_sources(table), cfg)[1]
+
+
+def test_source_rejects_and_counts_malformed_messages_and_waits_for_ephemerides(sky):
     """The node's input path: a raw epoch that arrives before its ephemerides
     waits for them (or for ephemeris_wait_s of filter time); malformed raw
     and ephemeris messages are counted as rejected, never raised."""
     ephs, obs = sky
     cfg = FilterConfig(state_blocks=("att", "vel", "pos", "bg", "ba", "clk"), init_pos_sigma_m=(5.0, 5.0, 5.0))
     eng = FusionEngine(cfg, NavState(9.9, LAT, LON, ALT, V_ENU, np.eye(3)))
-    h = TightGnssHandler(eng, tight_gnss_input({"gnss.ephemeris_wait_s": 0.5}))
+    h = gnss_raw_source(cfg, ephemeris_wait_s=0.5)
     raw = _raw(ephs, obs)
-    assert h.on_raw(_raw_msg(raw)) is None
+    assert h.on_message("main", _raw_msg(raw), eng) is None
     assert eng.counters["pseudorange_received"] == 0        # no ephemeris yet: held
     for e in ephs[:-1]:
-        assert h.on_ephemeris(_eph_msg(e)) is None
+        assert h.on_message("ephemeris", _eph_msg(e), eng) is None
     assert eng.counters["pseudorange_received"] == 0        # still one missing
-    assert h.on_ephemeris(_eph_msg(ephs[-1])) is None
+    assert h.on_message("ephemeris", _eph_msg(ephs[-1]), eng) is None
     assert eng.counters["pseudorange_received"] == 1        # complete: converted and queued
     bad = _raw_msg(raw)
     bad.pseudorange_m[2] = float("nan")
-    assert "non-finite pseudorange_m" in h.on_raw(bad)
+    assert "non-finite pseudorange_m" in h.on_message("main", bad, eng)
     short = _raw_msg(raw)
     short.locked = short.locked[:-1]
-    assert "array lengths differ" in h.on_raw(short)
+    assert "array lengths differ" in h.on_message("main", short, eng)
     broken = _eph_msg(ephs[0])
     broken.sqrt_a_sqrtm = float("nan")
-    assert "non-finite" in h.on_ephemeris(broken)
-    assert eng.counters["rejected_gnss_raw_malformed"] == 2
-    assert eng.counters["rejected_gnss_ephemeris_malformed"] == 1
-    assert eng.counters["gnss_raw_msgs"] == 3
+    assert "non-finite" in h.on_message("ephemeris", broken, eng)
+    d = h.diagnostics()
+    assert d["rejected gnss/raw"] == 2 and d["rejected gnss/ephemeris"] == 1
+    assert d["received gnss/raw"] == 3 and d["processed gnss/raw"] == 1
     # an epoch whose satellite never gets a record goes out after the wait, without that channel
-    h2 = TightGnssHandler(eng, tight_gnss_input({}))
+    h2 = gnss_raw_source(cfg)
     for e in ephs[1:]:
-        h2.on_ephemeris(_eph_msg(e))
-    h2.on_raw(_raw_msg(_raw(ephs, obs, t_s=10.5)))
+        h2.on_message("ephemeris", _eph_msg(e), eng)
+    h2.on_message("main", _raw_msg(_raw(ephs, obs, t_s=10.5)), eng)
     assert eng.counters["pseudorange_received"] == 1
     for k in range(1, 121):                                 # IMU to t = 11.1 s > 10.5 + 0.5
         eng.add_imu(9.9 + 0.01 * k, np.zeros(3), np.array([0.0, 0.0, 9.79 * 0.01]))
-        h2.feed()
+        h2.on_imu(eng)
     assert eng.counters["pseudorange_received"] == 2
-    assert h2.diagnostics()["gnss_channels_no_ephemeris"] == 1
+    assert h2.diagnostics()["gnss_raw channels_no_ephemeris"] == 1
 
 
-def test_tight_mode_needs_the_clock_block_and_valid_parameters():
-    check_gnss_mode("loose", FilterConfig())
-    check_gnss_mode("tight", FilterConfig(state_blocks=("att", "vel", "pos", "bg", "ba", "clk")))
+def test_virtual_channels_come_in_through_their_own_source_with_their_own_noise(sky):
+    """``channels: virtual`` takes only the is_virtual channels, ``tracked``
+    only the others; ``sigma_scale`` scales their sigmas."""
+    ephs, obs = sky
+    cfg = FilterConfig(state_blocks=("att", "vel", "pos", "bg", "ba", "clk"))
+    msg = _raw_msg(_raw(ephs, obs))
+    n = len(msg.prn)
+    msg.is_virtual = [i % 2 == 0 for i in range(n)]
+    virt = gnss_raw_source(cfg, channels="virtual", sigma_scale=3.0)
+    tracked = gnss_raw_source(cfg)
+    r_v = virt._select(conversions.gnss_raw(msg), msg.is_virtual)
+    r_t = tracked._select(conversions.gnss_raw(msg), msg.is_virtual)
+    assert list(r_v.locked) == msg.is_virtual and list(r_t.locked) == [not v for v in msg.is_virtual]
+    np.testing.assert_allclose(r_v.pseudorange_sigma_m, 3.0 * np.asarray(msg.pseudorange_sigma_m))
+    msg.is_virtual = [True] * (n - 1)
+    eng = FusionEngine(cfg, NavState(9.9, LAT, LON, ALT, V_ENU, np.eye(3)))
+    assert "is_virtual has" in virt.on_message("main", msg, eng)
+
+
+def test_gnss_raw_source_needs_the_clock_block_and_valid_parameters():
+    from hyper_nav_filter.core.config import ConfigError
+    tc = FilterConfig(state_blocks=("att", "vel", "pos", "bg", "ba", "clk"))
+    gnss_raw_source(tc)
+    gnss_raw_source(FilterConfig(state_blocks=tc.state_blocks, mechanization_frame="LCI"))   # both frames
     with pytest.raises(ConfigError, match="needs the receiver clock block 'clk'"):
-        check_gnss_mode("tight", FilterConfig())
-    with pytest.raises(ConfigError, match="filter.gnss_mode: expected one of"):
-        check_gnss_mode("tigth", FilterConfig())
-    with pytest.raises(ConfigError, match="mechanization_frame 'ENU'"):
-        check_gnss_mode("tight", FilterConfig(state_blocks=("att", "vel", "pos", "bg", "ba", "clk"),
-                                              mechanization_frame="LCI"))
-    with pytest.raises(ConfigError, match="gnss.klobuchar_alpha: expected 4 finite numbers"):
-        tight_gnss_input({"gnss.klobuchar_alpha": [1e-8, 0.0]})
-    with pytest.raises(ConfigError, match="gnss.ionosphere"):
-        tight_gnss_input({"gnss.ionosphere": "nequick"})
-    assert isinstance(tight_gnss_input({}), TightGnssInput)
-    assert tight_gnss_input({"gnss.ionosphere": "off"}).corrections.klobuchar is None
+        gnss_raw_source(FilterConfig())
+    with pytest.raises(ConfigError, match="klobuchar_alpha: expected 4 numbers"):
+        gnss_raw_source(tc, klobuchar_alpha=[1e-8, 0.0])
+    with pytest.raises(ConfigError, match="ionosphere: expected one of"):
+        gnss_raw_source(tc, ionosphere="nequick")
+    with pytest.raises(ConfigError, match="unknown field.*did you mean 'use_rates'"):
+        gnss_raw_source(tc, use_rate=True)
+    assert isinstance(gnss_raw_source(tc).tight, TightGnssInput)
+    assert gnss_raw_source(tc, ionosphere="off").tight.corrections.klobuchar is None
 
 
-def test_scenario_tight_mode_is_validated(tmp_path):
+def test_scenario_gnss_raw_source_is_validated(tmp_path):
     from hyper_nav_sim.core.scenario import ScenarioError, load_scenario
     from hyper_nav_sim.graph import apply_overrides
+    table = {"imu": {"type": "imu", "topic": "imu/data_raw"}, "gnss_raw": {"type": "gnss_raw", "topic": "gnss/raw"}}
     with pytest.raises(ScenarioError, match="needs the receiver clock block 'clk'"):
-        apply_overrides(load_scenario("seed004"), {"filter.gnss_mode": "tight"}, tmp_path)
-    with pytest.raises(ScenarioError, match="needs a gnss.raw receiver block"):
-        apply_overrides(load_scenario("default"), {"filter.gnss_mode": "tight",
-                                                   "filter.config.state_blocks": list(LAYOUT.names)}, tmp_path)
+        apply_overrides(load_scenario("seed004"), {"filter.sources": table}, tmp_path)
     sc = load_scenario("seed004_tight")
-    assert sc["filter.gnss_mode"] == "tight" and sc.filter_config().layout.has("clk")
-    p = sc.tight_gnss_parameters()
-    assert p["gnss.ionosphere"] == "klobuchar" and p["gnss.klobuchar_alpha"] == list(KLOBUCHAR_ALPHA_DEFAULT)
+    assert sc.filter_config().layout.has("clk")
+    p = sc.filter_sources()["gnss_raw"]
+    assert p["ionosphere"] == "klobuchar" and p["klobuchar_alpha"] == list(KLOBUCHAR_ALPHA_DEFAULT)
+    assert p["use_rates"] is True

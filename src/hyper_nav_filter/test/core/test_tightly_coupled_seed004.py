@@ -6,7 +6,8 @@ to the dynamics-driven loss of lock (seed 004 section 2.1).
 
 Scenario ``seed004_tight`` (seed 004 without the scripted outage, filter
 block with ``clk`` and the receiver's clock noise); the loosely coupled run is
-the same scenario with ``gnss_mode: loose`` and the 15-state layout."""
+the same scenario with the default sources (IMU, GNSS fix and velocity) and
+the 15-state layout."""
 import pathlib
 import tempfile
 
@@ -15,6 +16,7 @@ import numpy as np
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
+from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_sim.graph import apply_overrides
@@ -24,19 +26,19 @@ DURATION_S = 200.0
 
 def run(mode: str):
     """The filter over the simulated IMU and receiver. Tight mode goes through
-    the fusion node's input path (``TightGnssInput``: ephemeris store, raw
+    the fusion node's input path (the ``gnss_raw`` source: ephemeris store, raw
     epoch -> measurement corrected inside the filter at the nominal antenna
     position and clock of its epoch), fed in the order the node receives them."""
     over = {"duration_s": DURATION_S}
     if mode == "loose":
-        over.update({"filter.gnss_mode": "loose", "filter.config.state_blocks": ["att", "vel", "pos", "bg", "ba"]})
+        over.update({"filter.sources": DEFAULT_TABLE, "filter.config.state_blocks": ["att", "vel", "pos", "bg", "ba"]})
     sc = apply_overrides(load_scenario("seed004_tight"), over, pathlib.Path(tempfile.mkdtemp(prefix="tc_")))
     traj = sc.trajectory()
     imu = simulate.imu_stream(sc, traj)
     epochs = simulate.gnss_raw_stream(sc, traj)
     cfg = sc.filter_config()
     eng = FusionEngine(cfg, sc.filter_initial_state())
-    tight = sc.tight_gnss_input()
+    tight = next((s.tight for s in make_sources(sc.filter_source_specs(), cfg) if s.spec.type == "gnss_raw"), None)
     sols, j, used = [], 0, 0
     for k in range(len(imu.t_s)):
         eng.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
@@ -76,7 +78,7 @@ def test_tightly_coupled_beats_loosely_coupled_under_dynamics_driven_lock_loss()
     st = eng_tc.kf.stats["pseudorange"]
     # Measured (pseudoranges and rates, seed004_tight): all 196 epochs pass the
     # 0.9999 gate with mean NIS/dof ~0.9 once the nominal receiver clock bias
-    # integrates the estimated drift between updates (ErrorStateKF._propagate_extra);
+    # integrates the estimated drift between updates (blocks.clock.ReceiverClock.propagate);
     # without that, half were gated on a common-mode clock residual.
     print(f"pseudorange updates accepted {st[0]}, gated {st[1]}, mean NIS/dof {st[2] / max(st[0], 1):.2f}")
     assert st[1] <= 0.02 * used_tc

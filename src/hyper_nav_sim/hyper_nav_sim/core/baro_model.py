@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
+from hyper_nav_filter.core.atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
 
 
 def default_pressure_fn():

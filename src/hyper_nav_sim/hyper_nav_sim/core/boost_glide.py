@@ -94,7 +94,7 @@ from scipy.integrate import solve_ivp
 
 from hyper_nav_filter.core import earth
 
-from . import atmosphere
+from hyper_nav_filter.core import atmosphere
 from .trajectory import TruthSample, gauss_legendre_increments, inertial_rates
 
 G0 = earth.G0_MPS2

@@ -15,7 +15,7 @@ import numpy as np
 import yaml
 
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import check_gnss_mode, tight_gnss_input
+from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
@@ -63,10 +63,6 @@ SCHEMA = {
     "filter.initial_error.pos_enu_m": (vec(3), True, None),
     "filter.initial_error.vel_enu_mps": (vec(3), True, None),
     "filter.initial_error.att_enu_arcmin": (vec(3), True, None),
-    # GNSS coupling of the fusion node: "loose" (gnss/fix + gnss/vel) or "tight"
-    # (pseudoranges from gnss/raw + gnss/ephemeris; needs gnss.raw and the clk block)
-    "filter.gnss_mode": (STR, False, "loose"),
-    "filter.gnss_use_pseudorange_rates": (BOOL, False, False),
     "report.skip_s": (NUM, False, 30.0),
     "report.max_pos_rms_m": (NUM, False, None),
     "report.max_vel_rms_mps": (NUM, False, None),
@@ -201,21 +197,17 @@ class Scenario:
     def filter_config(self) -> FilterConfig:
         return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
 
-    def tight_gnss_parameters(self) -> dict:
-        """The fusion node's ``gnss.*`` parameters for ``filter.gnss_mode: tight``
-        (see ``hyper_nav_filter.core.gnss.raw_to_pseudoranges.TIGHT_GNSS_PARAMETERS``):
-        the receiver removes the broadcast ionosphere/troposphere models of the
-        ``gnss.raw`` block, with the Klobuchar coefficients its satellites
-        broadcast (the GnssEphemeris message does not carry them)."""
-        from .gnss.receiver import GnssReceiverConfig
-        rx = GnssReceiverConfig.from_dict(self.data.get("gnss", {}).get("raw"))
-        return {"gnss.ionosphere": rx.ionosphere, "gnss.klobuchar_alpha": [float(x) for x in rx.klobuchar_alpha],
-                "gnss.klobuchar_beta": [float(x) for x in rx.klobuchar_beta], "gnss.troposphere": rx.troposphere,
-                "gnss.use_pseudorange_rates": bool(self["filter.gnss_use_pseudorange_rates"])}
+    def filter_sources(self) -> dict:
+        """The fusion node's declared sources (``filter.sources``; default: IMU
+        and loosely coupled GNSS, ``hyper_nav_filter.sources.DEFAULT_TABLE``).
+        A ``gnss_raw`` source that does not set its receiver models takes
+        those of the ``gnss.raw`` block, with the Klobuchar set its satellites
+        broadcast (the GnssEphemeris message does not carry it)."""
+        return filter_sources(self.data)
 
-    def tight_gnss_input(self):
-        """The tightly coupled GNSS input the fusion node builds from these parameters."""
-        return tight_gnss_input(self.tight_gnss_parameters())
+    def filter_source_specs(self):
+        """The validated table (``hyper_nav_filter.sources.SourceSpec`` list)."""
+        return parse_sources(self.filter_sources())
 
     def rng(self, stream: str) -> np.random.Generator:
         """Independent, reproducible random stream per sensor."""
@@ -261,15 +253,28 @@ def validate(data, source: str = "<dict>") -> dict:
         cfg = FilterConfig.from_dict((data.get("filter") or {}).get("config", {}) or {})
     except (ConfigError, TypeError) as exc:
         raise ScenarioError(f"{source}: filter.config: {exc}") from None
-    mode = data["filter"]["gnss_mode"]
     try:
-        check_gnss_mode(mode, cfg)
+        make_sources(parse_sources(filter_sources(data)), cfg)
     except ConfigError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
-    if mode == "tight" and "raw" not in (data.get("gnss") or {}):
-        raise ScenarioError(f"{source}: filter.gnss_mode 'tight' needs a gnss.raw receiver block (pseudoranges)")
     _validate_models(data, source)
     return data
+
+
+def filter_sources(data: dict) -> dict:
+    """See :meth:`Scenario.filter_sources`."""
+    table = copy.deepcopy((data.get("filter") or {}).get("sources") or DEFAULT_TABLE)
+    raw = (data.get("gnss") or {}).get("raw")
+    if raw is not None and isinstance(table, dict):
+        from .gnss.receiver import GnssReceiverConfig
+        rx = GnssReceiverConfig.from_dict(raw)
+        for entry in table.values():
+            if isinstance(entry, dict) and entry.get("type") == "gnss_raw":
+                entry.setdefault("ionosphere", rx.ionosphere)
+                entry.setdefault("klobuchar_alpha", [float(x) for x in rx.klobuchar_alpha])
+                entry.setdefault("klobuchar_beta", [float(x) for x in rx.klobuchar_beta])
+                entry.setdefault("troposphere", rx.troposphere)
+    return table
 
 
 def _validate_models(data: dict, source: str) -> None:

@@ -34,16 +34,16 @@ g = 1 - u.(d/dt(R3) r_sat - R3 v_sat)/c the light-time rate factor at the
 nominal geometry (the simulator's rate contains 1/g, up to 2e-5 relative or
 ~4 cm/s here; the filter's rate model does not), so that
 rate_corr = u.(R3 v_sat - v_a) + d (exact to < 1 mm/s on noise-free
-simulated data). Rates are optional (``gnss.use_pseudorange_rates``, off
+simulated data). Rates are optional (the ``gnss_raw`` source's ``use_rates``, off
 by default; the seed004_tight scenario turns them on): on the seed 004
 flight (200 s, dynamics-driven lock loss) the solution is 0.66 m RMS with
 rates and 1.0 m without, no epoch gated.
 
 Ionosphere coefficients: ``hyper_nav_msgs/GnssMeasurements`` and
 ``GnssEphemeris`` carry no Klobuchar alpha/beta, so they come from
-configuration (the fusion node's ``gnss.klobuchar_alpha`` /
-``gnss.klobuchar_beta`` parameters, which ``run_graph`` fills from the
-scenario's ``gnss.raw`` block, i.e. the set the simulated satellites broadcast).
+configuration (the ``gnss_raw`` source's ``klobuchar_alpha`` /
+``klobuchar_beta`` parameters, which the scenario fills from its ``gnss.raw``
+block, i.e. the set the simulated satellites broadcast).
 
 Systems: one receiver clock bias for all systems (no inter-system bias
 state); the simulator has none either.
@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import earth
-from ..config import ConfigError, FilterConfig
+from ..params import ConfigError
 from ..nav_state import NavState
 from ..tightly_coupled import Pseudoranges
 from .ephemeris import C_MPS, BroadcastEphemeris, select_ephemeris, system_time_s
@@ -65,17 +65,6 @@ from .propagation import (CARRIER_HZ, KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DE
                           klobuchar_delay_m)
 
 SUPPORTED_SYSTEMS = ("G", "C")
-GNSS_MODES = ("loose", "tight")
-# Parameters of the tightly coupled input (fusion node ROS parameters, written
-# by run_graph from the scenario) and their defaults.
-TIGHT_GNSS_PARAMETERS = {
-    "gnss.ionosphere": "klobuchar",                      # 'klobuchar' | 'off'
-    "gnss.klobuchar_alpha": list(KLOBUCHAR_ALPHA_DEFAULT),
-    "gnss.klobuchar_beta": list(KLOBUCHAR_BETA_DEFAULT),
-    "gnss.troposphere": "hopfield",                      # 'hopfield' | 'off'
-    "gnss.use_pseudorange_rates": False,
-    "gnss.ephemeris_wait_s": 0.5,
-}
 
 
 class MalformedGnssInput(ValueError):
@@ -317,6 +306,7 @@ class RawPseudoranges:
     corrections: ReceiverCorrections
     use_rates: bool = False
     kind: str = "pseudorange"
+    coupling = "tight"
 
     def pseudoranges(self, state: NavState, lever_arm_b_m) -> Pseudoranges:
         r_ant, clk = nominal_receiver(state, lever_arm_b_m, self.t_s)
@@ -388,36 +378,3 @@ class TightGnssInput:
                 ok, _ = engine.add_measurement(m)
                 n += int(ok)
         return n
-
-
-def check_gnss_mode(mode: str, cfg: FilterConfig) -> None:
-    """ConfigError unless ``mode`` is 'loose' or 'tight', and a tight filter
-    has the receiver clock block and the ENU mechanization (the pseudorange
-    model is written for the ENU error state)."""
-    if mode not in GNSS_MODES:
-        raise ConfigError(f"filter.gnss_mode: expected one of {GNSS_MODES}, got {mode!r}")
-    if mode == "tight":
-        if not cfg.layout.has("clk"):
-            raise ConfigError(f"filter.gnss_mode 'tight' needs the receiver clock block 'clk' in "
-                              f"filter.state_blocks, got {list(cfg.state_blocks)}")
-        if cfg.mechanization_frame != "ENU":
-            raise ConfigError(f"filter.gnss_mode 'tight' needs filter.mechanization_frame 'ENU', "
-                              f"got {cfg.mechanization_frame!r}")
-
-
-def tight_gnss_input(params: dict | None = None) -> TightGnssInput:
-    """A TightGnssInput from {name: value} of TIGHT_GNSS_PARAMETERS (missing
-    names take the defaults); ConfigError names a bad parameter."""
-    p = dict(TIGHT_GNSS_PARAMETERS, **(params or {}))
-    unknown = sorted(set(p) - set(TIGHT_GNSS_PARAMETERS))
-    if unknown:
-        raise ConfigError(f"unknown tightly coupled GNSS parameter(s) {unknown}")
-    wait = p["gnss.ephemeris_wait_s"]
-    if isinstance(wait, bool) or not isinstance(wait, (int, float)) or not 0.0 <= wait < 1e3:
-        raise ConfigError(f"gnss.ephemeris_wait_s: expected a number of seconds >= 0, got {wait!r}")
-    rates = p["gnss.use_pseudorange_rates"]
-    if not isinstance(rates, bool):
-        raise ConfigError(f"gnss.use_pseudorange_rates: expected true or false, got {rates!r}")
-    corr = ReceiverCorrections.from_params(p["gnss.ionosphere"], p["gnss.klobuchar_alpha"], p["gnss.klobuchar_beta"],
-                                           p["gnss.troposphere"])
-    return TightGnssInput(corr, rates, float(wait))

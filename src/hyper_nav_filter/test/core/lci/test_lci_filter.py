@@ -1,4 +1,4 @@
-"""LCI error-state filter (core.lci.filter.LciErrorStateKF) through the
+"""The error-state filter in the LCI frame (core.frames.lci) through the
 FusionEngine: seed 001 boost-glide accuracy, vertical flight, and agreement
 with the ENU filter on the default scenario.
 
@@ -17,8 +17,6 @@ from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, rotvec_to_C
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.fusion import MODE_LOOSELY_COUPLED, FusionEngine, make_filter
-from hyper_nav_filter.core.eskf import ErrorStateKF
-from hyper_nav_filter.core.lci.filter import LciErrorStateKF, UnsupportedMeasurement
 from hyper_nav_filter.core.measurements import BaroHeight, ModelContext
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core import simulate
@@ -166,9 +164,10 @@ def test_seed001_issue_requirements_strict():
     assert np.all(rg < 0.1) and np.all(ra < 0.1)
 
 
-def test_vertical_flight_no_nan_and_rejects_unknown_measurements():
+def test_vertical_flight_no_nan_and_takes_every_measurement_model():
     """Pitch 90 deg (nose up, seed 001's first 4 s) and through it: the LCI
-    filter stays finite (no Euler angles anywhere in it)."""
+    filter stays finite (no Euler angles anywhere in it); it takes the
+    frame-neutral models (here a barometric height)."""
     sc = load_scenario("seed001")
     cfg = lci_config(sc)
     tr = sc.trajectory().truth([0.0, 2.0, 6.0])
@@ -180,8 +179,10 @@ def test_vertical_flight_no_nan_and_rejects_unknown_measurements():
         assert np.isfinite(s.state.lat_rad) and np.all(np.isfinite(s.P))
     _, err = per_axis_errors(sols, traj, 0.0)
     assert np.max(np.abs(err["att"])) < 0.2 and np.max(np.abs(err["pos"])) < 30.0
-    with pytest.raises(UnsupportedMeasurement, match="baro"):
-        eng.kf.model(BaroHeight(1.0, 100.0, 1.0), ModelContext(np.zeros(3), np.zeros(3), 0.0))
+    alt = eng.kf.state.alt_m
+    res, H, R = eng.kf.model(BaroHeight(eng.kf.t_s, alt + 3.0, 1.0), ModelContext(np.zeros(3), np.zeros(3), 0.0))
+    assert res[0] == pytest.approx(-3.0, abs=1e-6) and H.shape == (1, cfg.layout.dim)
+    assert np.linalg.norm(H[0, cfg.layout.sl("pos")]) == pytest.approx(1.0, rel=1e-6)    # LCI position error
 
 
 def test_lci_matches_enu_filter_on_default_scenario():
@@ -194,7 +195,7 @@ def test_lci_matches_enu_filter_on_default_scenario():
         cfg = dataclasses.replace(sc.filter_config(), mechanization_frame=frame)
         sols, eng, traj, _ = fly(sc, cfg, duration_s=120.0)
         out[frame] = sols
-        assert isinstance(eng.kf, LciErrorStateKF if frame == "LCI" else ErrorStateKF)
+        assert eng.kf.frame.name == frame
     a, b = out["ENU"], out["LCI"]
     assert len(a) == len(b) and [x.t_s for x in a] == [x.t_s for x in b]
     dpos = np.array([earth.position_error_enu_m(x.state.lat_rad, x.state.lon_rad, x.state.alt_m,
@@ -253,16 +254,17 @@ def test_config_and_make_filter():
     init = NavState(0.0, np.deg2rad(34.0), np.deg2rad(108.0), 500.0, np.array([0.0, 0.0, 10.0]),
                     rotvec_to_C(np.array([0.0, -np.pi / 2, 0.0])))
     kf = make_filter(cfg, init)
-    assert isinstance(kf, LciErrorStateKF)
+    assert kf.frame.name == "LCI"
     # the ENU view of the initial state is the given one; P0 round-trips through LCI
     assert kf.state.lat_rad == pytest.approx(init.lat_rad, abs=1e-12)
     assert kf.state.alt_m == pytest.approx(500.0, abs=1e-6)
     np.testing.assert_allclose(kf.state.vel_enu_mps, init.vel_enu_mps, atol=1e-9)
     np.testing.assert_allclose(kf.state.C_b_n, init.C_b_n, atol=1e-12)
     np.testing.assert_allclose(kf.P_enu(), cfg.initial_covariance(), atol=1e-12)
-    with pytest.raises(ConfigError, match="state_blocks"):
-        make_filter(FilterConfig(mechanization_frame="LCI", state_blocks=("att", "vel", "pos", "bg", "ba", "clk")),
-                    init)
+    # every block in the LCI frame too (the 17-state tightly coupled layout)
+    kf17 = make_filter(FilterConfig(mechanization_frame="LCI", state_blocks=("att", "vel", "pos", "bg", "ba", "clk")),
+                       init)
+    assert kf17.P.shape == (17, 17)
     # one predict step from rest is finite
     kf.predict(ImuSample(0.01, 0.01, np.zeros(3), np.array([9.8, 0.0, 0.0]) * 0.01))
     assert np.all(np.isfinite(kf.P)) and np.isfinite(kf.state.alt_m)

@@ -142,24 +142,46 @@ _RHO_B = _P_B * M0 / (R_STAR * _T_B)      # base densities of the geopotential l
 _C = G0 * M0 / R_STAR
 
 
+def _altitude_where(x, x_base, upper_col: int, density: bool):
+    """Geometric altitude [m] where pressure (or density) equals x, exact per
+    geopotential layer below 86 km: x / x_b = (T_b / T)^k with k = c / L for
+    pressure and c / L + 1 for density (c = g0 M0 / R*), exp(-c dh / T_b) in
+    isothermal layers; log-linear in the 1976 table above."""
+    x = np.asarray(x, dtype=float)
+    i = np.clip(np.searchsorted(-x_base, -x, side="right") - 1, 0, 6)
+    Tb, Lb, xb, Hb = _T_B[i], _L_B[i], x_base[i], _H_B[i]
+    iso = Lb == 0.0
+    Ls = np.where(iso, 1.0, Lb)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        k = _C / Ls + (1.0 if density else 0.0)
+        dh_grad = (Tb * (x / xb) ** (-1.0 / k) - Tb) / Ls
+    dh_iso = -Tb * np.log(x / xb) / _C
+    H = Hb + np.where(iso, dh_iso, dh_grad)
+    z_lo = R0_M * H / (R0_M - H)
+    lx = np.log(_UPPER[:, upper_col])
+    j = np.clip(np.searchsorted(-lx, -np.log(x), side="right") - 1, 0, len(lx) - 2)
+    w = (np.log(x) - lx[j]) / (lx[j + 1] - lx[j])
+    z_hi = _UPPER[j, 0] + w * (_UPPER[j + 1, 0] - _UPPER[j, 0])
+    return np.where(x < _UPPER[0, upper_col], z_hi, z_lo)
+
+
 def altitude_for_density_m(rho_kgpm3):
     """Geometric altitude [m] at which the density is rho: the exact inverse of
     :func:`density_kgpm3` (closed form in each layer, so it is smooth inside
     the layers and continuous everywhere; used by the glide guidance)."""
-    rho = np.asarray(rho_kgpm3, dtype=float)
-    # geopotential layers: rho = rho_b (T_b/T)^(c/L + 1), or rho_b exp(-c dh/T_b)
-    i = np.clip(np.searchsorted(-_RHO_B, -rho, side="right") - 1, 0, 6)
-    Tb, Lb, rb, Hb = _T_B[i], _L_B[i], _RHO_B[i], _H_B[i]
-    iso = Lb == 0.0
-    Ls = np.where(iso, 1.0, Lb)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dh_grad = (Tb * (rho / rb) ** (-1.0 / (_C / Ls + 1.0)) - Tb) / Ls
-    dh_iso = -Tb * np.log(rho / rb) / _C
-    H = Hb + np.where(iso, dh_iso, dh_grad)
-    z_lo = R0_M * H / (R0_M - H)
-    # above 86 km: log-linear table
-    lr = np.log(_UPPER[:, 3])
-    j = np.clip(np.searchsorted(-lr, -np.log(rho), side="right") - 1, 0, len(lr) - 2)
-    w = (np.log(rho) - lr[j]) / (lr[j + 1] - lr[j])
-    z_hi = _UPPER[j, 0] + w * (_UPPER[j + 1, 0] - _UPPER[j, 0])
-    return np.where(rho < _UPPER[0, 3], z_hi, z_lo)
+    return _altitude_where(rho_kgpm3, _RHO_B, 3, density=True)
+
+
+def pressure_altitude_m(p_pa):
+    """Geometric altitude [m] at which the US76 pressure is p: the exact
+    inverse of :func:`pressure_Pa`. This is the altimeter model of a
+    barometric height measurement (``hyper_nav_filter.sources``)."""
+    return _altitude_where(p_pa, _P_B, 2, density=False)
+
+
+def pressure_height_gradient_pa_per_m(z_m):
+    """dp/dz = -rho g (hydrostatic, Pa/m) at geometric altitude z: maps a
+    pressure variance into an altitude variance."""
+    T, P, rho, _ = atmosphere(z_m)
+    g = G0 * (R0_M / (R0_M + np.asarray(z_m, float))) ** 2
+    return -rho * g

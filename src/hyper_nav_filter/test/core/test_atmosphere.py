@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from hyper_nav_sim.core import atmosphere
+from hyper_nav_filter.core import atmosphere
 
 # geometric altitude [m]: T [K], P [Pa], rho [kg/m^3], a [m/s]  (1976 Table I)
 TABLE = {

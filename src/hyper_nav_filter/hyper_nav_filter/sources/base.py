@@ -1,0 +1,213 @@
+"""Declared fusion sources (STYLE pattern 14, the navigation2 plugin list).
+
+The fusion node's inputs are a table, ``filter.sources`` in the scenario:
+
+    filter:
+      sources:
+        imu:      {type: imu,         topic: imu/data_raw}
+        gnss_fix: {type: gnss_fix,    topic: gnss/fix}
+        baro:     {type: baro_height, topic: baro/pressure, qos: sensor_data, max_alt_m: 40000.0}
+
+Each entry names a registered source *type*: a converter from one ROS
+message type to core measurements (or IMU samples, or model updates), with
+its own parameters (``PARAMS``, declared once, core.params). The fusion node,
+the offline replay, the graph starter and the report all read this one
+table; adding an aiding source is configuration plus, for a new kind of
+message, one converter (here) and one measurement model (core). Messages are
+duck-typed: rclpy messages live, rosbags-deserialized ones offline; no
+rclpy here.
+"""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+from ..core.params import STR, ConfigError, ParamSpec, check_all, suggest
+
+QOS_CHOICES = ("reliable", "sensor_data")
+COMMON_FIELDS = ("type", "topic", "qos", "msg")
+
+
+@dataclass(frozen=True)
+class SourceInput:
+    """One subscription of a source: role (``main`` or an extra input such as
+    ``ephemeris``), topic, ROS message type, and whether it is latched
+    (reliable + transient local, e.g. broadcast ephemerides)."""
+    role: str
+    topic: str
+    msg_type: str
+    latched: bool = False
+
+
+@dataclass(frozen=True)
+class SourceSpec:
+    """A validated table entry."""
+    id: str
+    type: str
+    topic: str
+    qos: str = "reliable"
+    params: dict = field(default_factory=dict)
+
+
+class SourceType:
+    """Base class of the converters. Subclasses set ``TYPE``, ``MSG_TYPES``
+    (accepted ROS message types, the first is the default), ``PARAMS`` and
+    ``EXTRA_INPUTS`` ({role: (param naming its topic, msg type, latched)}),
+    and implement ``convert``."""
+    TYPE = ""
+    MSG_TYPES: tuple[str, ...] = ()
+    DESCRIPTION = ""
+    PARAMS: tuple[ParamSpec, ...] = ()
+    EXTRA_INPUTS: dict = {}
+    drives_time = False           # the IMU: advances the filter and releases solutions
+
+    def __init__(self, spec: SourceSpec, cfg=None):
+        self.spec = spec
+        self.cfg = cfg
+        self.p = spec.params
+        self.counters: Counter = Counter()
+
+    @property
+    def id(self) -> str:
+        return self.spec.id
+
+    def inputs(self) -> list[SourceInput]:
+        out = [SourceInput("main", self.spec.topic, self.spec.params.get("msg") or self.MSG_TYPES[0])]
+        for role, (param, msg_type, latched) in self.EXTRA_INPUTS.items():
+            out.append(SourceInput(role, self.p[param], msg_type, latched))
+        return out
+
+    def on_message(self, role: str, msg, engine) -> str | None:
+        """Feed one message to the engine; returns the reason when it is
+        rejected (counted, never raised)."""
+        self.counters[f"received {role}"] += 1
+        try:
+            reason = self.convert(role, msg, engine)
+        except (ValueError, TypeError, KeyError, AttributeError) as exc:
+            reason = f"malformed: {exc}"
+        if reason is None:
+            self.counters[f"processed {role}"] += 1
+        else:
+            self.counters[f"rejected {role}"] += 1
+            self.counters[f"rejected {role}: {reason.split(':')[0]}"] += 1
+        return reason
+
+    def convert(self, role: str, msg, engine) -> str | None:
+        raise NotImplementedError
+
+    @staticmethod
+    def _queued(result) -> str | None:
+        ok, reason = result
+        return None if ok else reason
+
+    def check(self, cfg) -> None:
+        """ConfigError when the filter configuration cannot take this source
+        (e.g. pseudoranges need the clock block)."""
+
+    def on_imu(self, engine) -> None:
+        """Called after every IMU sample (sources holding data until the filter time passes it)."""
+
+    def diagnostics(self) -> dict:
+        """Counters keyed by topic: ``received <topic>``, ``processed <topic>``, ``rejected <topic>``."""
+        out = {}
+        topics = {i.role: i.topic for i in self.inputs()}
+        for key, n in self.counters.items():
+            what, _, role = key.partition(" ")
+            role, _, detail = role.partition(": ")
+            out[f"{what} {topics.get(role, role)}" + (f" ({detail})" if detail else "")] = n
+        return out
+
+
+def navsatfix_check(msg, allow_no_covariance: bool = False) -> str | None:
+    """Why a sensor_msgs/NavSatFix cannot be used as a fix (None: usable):
+    status below STATUS_FIX (no fix, or unknown), or no covariance."""
+    if msg.status.status < 0:
+        return "no_fix"
+    if int(msg.position_covariance_type) == 0 and not allow_no_covariance:
+        return "no_covariance"
+    return None
+
+
+REGISTRY: dict[str, type[SourceType]] = {}
+
+
+def register(cls: type[SourceType]) -> type[SourceType]:
+    REGISTRY[cls.TYPE] = cls
+    return cls
+
+
+def parse_sources(table, where: str = "filter.sources") -> list[SourceSpec]:
+    """Validate a sources table ({id: {type, topic, qos, <params>}}); errors
+    name the field. Exactly one source drives time (type ``imu``)."""
+    if not isinstance(table, dict) or not table:
+        raise ConfigError(f"{where}: expected a mapping of source ids to {{type, topic, ...}}, got {table!r}")
+    specs = []
+    for sid, entry in table.items():
+        at = f"{where}.{sid}"
+        if not isinstance(sid, str) or not sid.replace("_", "").isalnum():
+            raise ConfigError(f"{at}: source ids are names of letters, digits and '_'")
+        if not isinstance(entry, dict):
+            raise ConfigError(f"{at}: expected a mapping {{type, topic, ...}}, got {entry!r}")
+        typ = entry.get("type")
+        if typ is None:
+            raise ConfigError(f"{at}.type: missing (known types: {', '.join(sorted(REGISTRY))})")
+        if typ not in REGISTRY:
+            raise ConfigError(f"{at}.type: unknown source type {typ!r}{suggest(str(typ), REGISTRY)}")
+        cls = REGISTRY[typ]
+        topic = entry.get("topic")
+        if not isinstance(topic, str) or not topic.strip():
+            raise ConfigError(f"{at}.topic: missing or not a topic name (got {topic!r})")
+        qos = ParamSpec("qos", STR, "reliable", "", choices=QOS_CHOICES).check(entry.get("qos", "reliable"), f"{at}.")
+        msg = entry.get("msg", cls.MSG_TYPES[0])
+        if msg not in cls.MSG_TYPES:
+            raise ConfigError(f"{at}.msg: source type {typ!r} takes {list(cls.MSG_TYPES)}, not {msg!r}")
+        params = {k: v for k, v in entry.items() if k not in COMMON_FIELDS}
+        params = check_all(cls.PARAMS, params, f"{at}.")
+        params["msg"] = msg
+        specs.append(SourceSpec(sid, typ, topic, qos, params))
+    timed = [s.id for s in specs if REGISTRY[s.type].drives_time]
+    if len(timed) != 1:
+        raise ConfigError(f"{where}: exactly one source of type 'imu' is needed, got {timed or 'none'}")
+    return specs
+
+
+def make_sources(specs: list[SourceSpec], cfg) -> list[SourceType]:
+    """The converter objects of a validated table (checked against the filter configuration)."""
+    out = []
+    for s in specs:
+        src = REGISTRY[s.type](s, cfg)
+        src.check(cfg)
+        out.append(src)
+    return out
+
+
+def spec_to_params(specs: list[SourceSpec]) -> dict:
+    """Flat ROS parameters of a table: ``sources`` (ids) and
+    ``sources.<id>.type|topic|qos|msg|<param>``."""
+    out = {"sources": [s.id for s in specs]}
+    for s in specs:
+        out[f"sources.{s.id}.type"] = s.type
+        out[f"sources.{s.id}.topic"] = s.topic
+        out[f"sources.{s.id}.qos"] = s.qos
+        for k, v in s.params.items():
+            out[f"sources.{s.id}.{k}"] = list(v) if isinstance(v, tuple) else v
+    return out
+
+
+def table_from_params(get) -> dict:
+    """Rebuild the table from flat parameters; ``get(name, default)`` reads one."""
+    table = {}
+    for sid in get("sources", []):
+        typ = get(f"sources.{sid}.type", None)
+        entry = {"type": typ, "topic": get(f"sources.{sid}.topic", None), "qos": get(f"sources.{sid}.qos", "reliable"),
+                 "msg": get(f"sources.{sid}.msg", None)}
+        cls = REGISTRY.get(typ)
+        if cls is not None:
+            for p in cls.PARAMS:
+                entry[p.name] = get(f"sources.{sid}.{p.name}", p.default)
+        if entry["msg"] is None:
+            entry.pop("msg")
+        table[sid] = entry
+    return table
+
+
