@@ -7,8 +7,8 @@
   ours is given the true r0 (an advantage to it).
 * DLAC, Table 2: the elastic model with the initial frequencies, never re-estimated.
 * RL-DLAC: the same until the model update, then the learned frequencies,
-  applied by the fusion engine at the update epoch (as the fusion node would
-  apply the ModelUpdate the lever-arm node publishes).
+  applied by the fusion engine at the update epoch (``add_model_update``, as
+  the fusion node applies the ModelUpdate the lever-arm node publishes).
 """
 from __future__ import annotations
 
@@ -17,9 +17,11 @@ import dataclasses
 import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
+from hyper_nav_filter.core.model_update import ModelUpdate
 from hyper_nav_sim.offline_fly import per_axis_errors
 
-from .core.lever_arm.replay import config_with_frequencies
+from .core.lever_arm.replay import FREQ_FIELD
+from .lever_arm_conversions import MODEL_NAME
 from .sim_windows import SimulatedFlight
 
 
@@ -27,13 +29,12 @@ def fly(flight: SimulatedFlight, cfg, updates=(), duration_s: float | None = Non
     """The fusion core over the flight; ``updates``: [(epoch, frequencies)]
     applied from their epoch on. Returns the released solutions."""
     eng = FusionEngine(cfg, flight.scenario.filter_initial_state())
-    pending = sorted(updates, key=lambda u: u[0])
+    for t_u, freqs in updates:
+        eng.add_model_update(ModelUpdate.from_arrays(t_u, MODEL_NAME, [FREQ_FIELD] * 3, freqs, "reproduce_seed000"))
     imu, j, sols = flight.imu, 0, []
     n = len(imu.t_s) if duration_s is None else int(np.searchsorted(imu.t_s, duration_s + 1e-9))
     for k in range(n):
         t = imu.t_s[k]
-        while pending and pending[0][0] <= t - 1e-9:
-            _apply_frequencies(eng, pending.pop(0)[1])
         eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
         while j < len(flight.gnss) and flight.gnss[j].t_s <= t + 1e-9:
             eng.add_measurement(flight.gnss[j])
@@ -41,17 +42,6 @@ def fly(flight: SimulatedFlight, cfg, updates=(), duration_s: float | None = Non
         if k % release_every == release_every - 1:
             sols += eng.release()
     return sols + eng.release(final=True)
-
-
-def _apply_frequencies(eng: FusionEngine, freqs_radps) -> None:
-    """Interim until the engine's model updates (issue 9) land: the in-order
-    flight has no late data, so replacing the filter's lever-arm model at the
-    epoch is what the engine's update will do."""
-    from hyper_nav_filter.core.elastic_lever_arm import LeverArmCompensator, ModalModel
-    new_cfg = config_with_frequencies(eng.kf.cfg, freqs_radps)
-    eng.cfg = new_cfg
-    eng.kf.cfg = new_cfg
-    eng.kf._lever = LeverArmCompensator(ModalModel.from_config(new_cfg))
 
 
 def navigation_errors(setup, run: dict, log) -> dict:

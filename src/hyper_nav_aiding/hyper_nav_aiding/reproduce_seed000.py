@@ -203,19 +203,20 @@ def table5(setup: Setup, seeds, log) -> dict:
                      "learned_radps": res.freqs_radps.tolist(), "error_pct": _err_pct(res.freqs_radps, truth),
                      "reward_initial_m": res.reward_initial, "reward_m": res.reward, "accepted": res.accepted,
                      "reason": res.reason, "episode_rewards_m": res.episode_rewards, "n_passes": res.n_passes,
-                     "wall_s": res.wall_s, "sigma_crb_radps": None if res.sigma_radps is None else
+                     "wall_s": res.wall_s, "cpu_s": res.cpu_s, "sigma_crb_radps": None if res.sigma_radps is None else
                      np.asarray(res.sigma_radps).tolist(), "history": res.history,
                      "_window": window, "_cfg": cfg, "_truth": truth, "_rc": rc})
         r = runs[-1]
         log(f"  seed {seed}: trigger at {t_fire:.1f} s; learned {_fmt_w(r['learned_radps'])} error "
             f"{_fmt_pct(r['error_pct'])}; reward {r['reward_initial_m']:.4f} -> {r['reward_m']:.4f} m; "
-            f"{r['n_passes']} passes {r['wall_s']:.1f} s")
+            f"{r['n_passes']} passes {r['wall_s']:.1f} s wall {r['cpu_s']:.1f} s CPU")
     errs = np.abs([r["error_pct"] for r in runs])
     summary = {"mean_abs_error_pct": errs.mean(axis=0).tolist(), "std_abs_error_pct": errs.std(axis=0).tolist(),
                "mean_of_mean_error_pct": float(errs.mean()), "std_of_mean_error_pct": float(errs.mean(axis=1).std()),
                "learned_mean_radps": np.mean([r["learned_radps"] for r in runs], axis=0).tolist(),
                "learned_std_radps": np.std([r["learned_radps"] for r in runs], axis=0).tolist(),
-               "wall_s_mean": float(np.mean([r["wall_s"] for r in runs])), "n_seeds": len(runs)}
+               "wall_s_mean": float(np.mean([r["wall_s"] for r in runs])),
+               "cpu_s_mean": float(np.mean([r["cpu_s"] for r in runs])), "n_seeds": len(runs)}
     return {"runs": runs, "summary": summary}
 
 
@@ -236,7 +237,8 @@ def compare(runs_by_case: dict, log) -> dict:
         rows = {m: [] for m in ("ddpg", "cmaes", "nelder_mead", "max_likelihood")}
         for r in runs:
             rows["ddpg"].append({"seed": r["seed"], "freqs_radps": r["learned_radps"], "error_pct": r["error_pct"],
-                                 "wall_s": r["wall_s"], "n_passes": r["n_passes"], "reward_m": r["reward_m"]})
+                                 "wall_s": r["wall_s"], "cpu_s": r["cpu_s"], "n_passes": r["n_passes"],
+                                 "reward_m": r["reward_m"]})
             budget = r["_rc"].budget_passes - 1
             for m in ("cmaes", "nelder_mead", "max_likelihood"):
                 env = LeverArmFrequencyEnv(r["_window"], r["_cfg"], r["_cfg"].lever_arm_natural_freq_radps,
@@ -247,17 +249,19 @@ def compare(runs_by_case: dict, log) -> dict:
                 res = fn(env)
                 rows[m].append({"seed": r["seed"], "freqs_radps": res.freqs_radps.tolist(),
                                 "error_pct": _err_pct(res.freqs_radps, r["_truth"]), "wall_s": res.wall_s,
-                                "n_passes": res.n_passes, "reward_m": res.reward, "note": res.note})
+                                "cpu_s": res.cpu_s, "n_passes": res.n_passes, "reward_m": res.reward, "note": res.note})
         summ = {}
         for m, rs in rows.items():
             e = np.abs([x["error_pct"] for x in rs])
             summ[m] = {"mean_abs_error_pct": e.mean(axis=0).tolist(), "mean_error_pct": float(e.mean()),
                        "std_of_mean_error_pct": float(e.mean(axis=1).std()),
                        "wall_s_mean": float(np.mean([x["wall_s"] for x in rs])),
+                       "cpu_s_mean": float(np.mean([x["cpu_s"] for x in rs])),
                        "passes_mean": float(np.mean([x["n_passes"] for x in rs]))}
             log(f"  {case:9s} {m:15s} |error| {_fmt_pct(summ[m]['mean_abs_error_pct'])} mean "
                 f"{summ[m]['mean_error_pct']:8.3f} % (+- {summ[m]['std_of_mean_error_pct']:.3f}) "
-                f"wall {summ[m]['wall_s_mean']:6.1f} s, {summ[m]['passes_mean']:.0f} passes")
+                f"wall {summ[m]['wall_s_mean']:6.1f} s, CPU {summ[m]['cpu_s_mean']:6.1f} s, "
+                f"{summ[m]['passes_mean']:.0f} passes")
         out[case] = {"runs": rows, "summary": summ}
     return out
 
@@ -280,7 +284,8 @@ def excited_runs(setup: Setup, seeds, log) -> list:
         res = reestimate(w, cfg, cfg.lever_arm_natural_freq_radps, rc)
         runs.append({"seed": int(seed), "learned_radps": res.freqs_radps.tolist(),
                      "error_pct": _err_pct(res.freqs_radps, truth), "reward_m": res.reward,
-                     "reward_initial_m": res.reward_initial, "wall_s": res.wall_s, "n_passes": res.n_passes,
+                     "reward_initial_m": res.reward_initial, "wall_s": res.wall_s, "cpu_s": res.cpu_s,
+                     "n_passes": res.n_passes,
                      "episode_rewards_m": res.episode_rewards, "history": res.history,
                      "_window": w, "_cfg": cfg, "_truth": truth, "_rc": rc})
         log(f"  excited seed {seed}: DDPG {_fmt_w(res.freqs_radps)} error {_fmt_pct(runs[-1]['error_pct'])}")
@@ -311,7 +316,8 @@ def print_table5(t5: dict, log) -> None:
             f"{PAPER['learned_radps'][i]:9.4f} {PAPER['error_pct'][i]:5.2f}% | {s['learned_mean_radps'][i]:9.4f} "
             f"{s['learned_std_radps'][i]:7.4f} {s['mean_abs_error_pct'][i]:9.2f}% {s['std_abs_error_pct'][i]:6.2f}%")
     log(f"  mean error: paper {PAPER['mean_error_pct']:.2f} %, ours {s['mean_of_mean_error_pct']:.2f} % "
-        f"(+- {s['std_of_mean_error_pct']:.2f} % over seeds); one re-estimation {s['wall_s_mean']:.1f} s wall")
+        f"(+- {s['std_of_mean_error_pct']:.2f} % over seeds); one re-estimation {s['wall_s_mean']:.1f} s wall, "
+        f"{s['cpu_s_mean']:.1f} s CPU")
 
 
 def main(argv=None) -> int:

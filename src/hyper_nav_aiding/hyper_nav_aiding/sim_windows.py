@@ -108,15 +108,15 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
     measurements' covariances when ``rng`` is given). With these frequencies a
     replay's noise-free innovations are zero."""
     from hyper_nav_filter.core import earth
-    from hyper_nav_filter.core.fusion import make_filter
+    from hyper_nav_filter.core.eskf import ErrorStateKF
     from hyper_nav_filter.core.measurements import ModelContext
     from hyper_nav_filter.core.nav_state import ImuSample
 
-    from .core.lever_arm.replay import _omega_nb_b, config_with_frequencies
+    from .core.lever_arm.replay import config_with_frequencies
 
     cfg_w = config_with_frequencies(cfg, freqs_radps)
-    kf = make_filter(cfg_w, window.initial_state.copy())
-    lever_b = np.asarray(cfg_w.antenna_lever_arm_b_m, float)
+    kf = ErrorStateKF(cfg_w, window.initial_state, window.initial_P)
+    lever_b = cfg_w.antenna_lever_arm_b_m
     out, j, t_prev = [], 0, window.t0_s
     for k in range(len(window.imu_t_s)):
         t = float(window.imu_t_s[k])
@@ -126,7 +126,7 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
         while j < len(window.gnss) and window.gnss[j].t_s <= t + 1e-9:
             m = window.gnss[j]
             j += 1
-            nu, _, R = kf.model(m, ModelContext(lever_b, _omega_nb_b(kf, imu), m.t_s - t))
+            nu, _, R = kf.model(m, ModelContext.at(kf, imu, lever_b).shifted(m.t_s - t))
             shift = np.asarray(nu, float)
             if rng is not None:
                 shift = shift - rng.multivariate_normal(np.zeros(len(shift)), R)

@@ -147,12 +147,13 @@ class DDPGResult:
     episode_best: list = field(default_factory=list)         # best reward so far after each episode
     n_passes: int = 0
     wall_s: float = 0.0
+    cpu_s: float = 0.0
 
 
 def train(env, cfg: DDPGConfig = DDPGConfig(), seed: int = 0) -> DDPGResult:
     """Run DDPG on ``env`` (a ``LeverArmFrequencyEnv``) for ``cfg.episodes``
     episodes (the environment's deadline, if any, ends it with its exception)."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     init, act, update = _functions(cfg.hidden, cfg.actor_lr, cfg.critic_lr, cfg.gamma, cfg.tau)
     rng = np.random.default_rng(seed)
     params = init(seed)
@@ -178,5 +179,5 @@ def train(env, cfg: DDPGConfig = DDPGConfig(), seed: int = 0) -> DDPGResult:
         out.episode_rewards.append(total)
         out.episode_best.append(env.best_reward)
     out.freqs_radps, out.reward = env.best_freqs_radps.copy(), env.best_reward
-    out.n_passes, out.wall_s = env.n_passes, time.perf_counter() - t0
+    out.n_passes, out.wall_s, out.cpu_s = env.n_passes, time.perf_counter() - t0, time.process_time() - c0
     return out

@@ -35,11 +35,12 @@ class IdentResult:
     wall_s: float
     sigma_radps: np.ndarray | None = None
     note: str = ""
+    cpu_s: float = 0.0
 
 
 def cmaes(env, budget: int, seed: int = 0, sigma0: float = 0.3) -> IdentResult:
     """CMA-ES from the environment's initial model, ``budget`` passes."""
-    t0, n0 = time.perf_counter(), env.n_passes
+    t0, c0, n0 = time.perf_counter(), time.process_time(), env.n_passes
     es = cma.CMAEvolutionStrategy(env.to_obs(env.w_init).astype(float), sigma0,
                                   {"bounds": [-1.0, 1.0], "maxfevals": budget, "seed": seed + 1, "verbose": -9})
     while not es.stop() and env.n_passes - n0 < budget:
@@ -50,19 +51,19 @@ def cmaes(env, budget: int, seed: int = 0, sigma0: float = 0.3) -> IdentResult:
             break
         es.tell(xs, fs)
     return IdentResult("cmaes", env.best_freqs_radps.copy(), env.best_reward, env.n_passes - n0,
-                       time.perf_counter() - t0)
+                       time.perf_counter() - t0, cpu_s=time.process_time() - c0)
 
 
 def nelder_mead(env, budget: int, step: float = 0.2) -> IdentResult:
     """Nelder-Mead from the environment's initial model, ``budget`` passes;
     initial simplex edges of ``step`` (normalised units)."""
-    t0, n0 = time.perf_counter(), env.n_passes
+    t0, c0, n0 = time.perf_counter(), time.process_time(), env.n_passes
     x0 = env.to_obs(env.w_init).astype(float)
     simplex = np.vstack([x0] + [x0 + step * e for e in np.eye(3)])
     minimize(lambda x: -env.evaluate(env.from_obs(x)), x0, method="Nelder-Mead", bounds=[(-1.0, 1.0)] * 3,
              options={"maxfev": budget, "initial_simplex": np.clip(simplex, -1, 1), "xatol": 1e-6, "fatol": 1e-9})
     return IdentResult("nelder_mead", env.best_freqs_radps.copy(), env.best_reward, env.n_passes - n0,
-                       time.perf_counter() - t0)
+                       time.perf_counter() - t0, cpu_s=time.process_time() - c0)
 
 
 def _scoring_terms(window, cfg, w, rel_step):
@@ -87,7 +88,7 @@ def _scoring_terms(window, cfg, w, rel_step):
 def max_likelihood(env, budget: int, rel_step: float = 1e-4, tol_rel: float = 1e-7) -> IdentResult:
     """Levenberg-Marquardt on the innovations' negative log-likelihood from
     the environment's initial model within its search box (module doc)."""
-    t0, n0 = time.perf_counter(), env.n_passes
+    t0, c0, n0 = time.perf_counter(), time.process_time(), env.n_passes
     window, cfg = env.window, env.filter_cfg
     w = env.w_init.copy()
     lam, used, note = 1e-3, 0, "budget"
@@ -115,4 +116,5 @@ def max_likelihood(env, budget: int, rel_step: float = 1e-4, tol_rel: float = 1e
     env.n_passes += used
     reward = env.evaluate(w)
     sigma = np.sqrt(np.abs(np.diag(np.linalg.pinv(info))))
-    return IdentResult("max_likelihood", w, reward, env.n_passes - n0, time.perf_counter() - t0, sigma, note)
+    return IdentResult("max_likelihood", w, reward, env.n_passes - n0, time.perf_counter() - t0, sigma, note,
+                       time.process_time() - c0)

@@ -3,26 +3,26 @@ frequencies: the environment's transition (seed 000 section III.B.1, "the
 GNSS/INS integration navigation model ... evaluates the current dynamic
 lever-arm model") and the unit of cost of every identifier here.
 
-The pass runs ``hyper_nav_filter.core.fusion.make_filter`` (the fusion node's
-24-state filter, eqs. 15-31) with ``lever_arm_natural_freq_radps`` replaced,
-from the window's initial fused state, in time order: predict with each IMU
-sample, then the GNSS measurements stamped in the interval (as
-``FusionEngine._process_epoch`` does; the window is in order, so the engine's
-re-processing and snapshots are not needed). It records each measurement's
+The pass runs ``hyper_nav_filter.core.eskf.ErrorStateKF`` (the fusion node's
+24-state filter, eqs. 15-31) with ``lever_arm_natural_freq_radps`` replaced
+(``FilterConfig.with_updates``, as a model update does), from the window's
+initial fused state and covariance, in time order: predict with each IMU
+sample, then the GNSS measurements stamped in the interval, with the
+engine's measurement context (``ModelContext.at``), as
+``FusionEngine._process_epoch`` does; the window is in order, so the
+engine's re-processing and snapshots are not needed. It records each measurement's
 innovation (predicted minus measured, before the update) and its covariance
 S = H P H^T + R: the rewards, the likelihood and the Fisher information are
 functions of these.
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.config import FilterConfig
-from hyper_nav_filter.core.fusion import make_filter
+from hyper_nav_filter.core.eskf import ErrorStateKF
 from hyper_nav_filter.core.measurements import ModelContext
 from hyper_nav_filter.core.nav_state import ImuSample
 
@@ -60,24 +60,17 @@ class WindowPass:
 
 def config_with_frequencies(cfg: FilterConfig, freqs_radps) -> FilterConfig:
     """The filter configuration with other natural frequencies (the only field changed)."""
-    return dataclasses.replace(cfg, **{FREQ_FIELD: tuple(float(w) for w in freqs_radps)})
-
-
-def _omega_nb_b(kf, imu: ImuSample) -> np.ndarray:
-    """Body rate w.r.t. ENU for the antenna lever-arm terms (as FusionEngine computes it)."""
-    s = kf.state
-    w_in = earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.alt_m, s.vel_enu_mps)
-    return imu.dtheta_b_rad / imu.dt_s - s.gyro_error_b_radps() - s.C_b_n.T @ w_in
+    return cfg.with_updates({FREQ_FIELD: tuple(float(w) for w in freqs_radps)})
 
 
 def replay(window: DataWindow, cfg: FilterConfig, freqs_radps) -> WindowPass:
     """Run the filter with ``freqs_radps`` over ``window``; see the module doc."""
     cfg_w = config_with_frequencies(cfg, freqs_radps)
-    kf = make_filter(cfg_w, window.initial_state.copy())
-    if window.initial_P.shape != kf.P.shape:
-        raise ValueError(f"window covariance {window.initial_P.shape} does not match the filter's {kf.P.shape}")
-    kf.P = window.initial_P.copy()
-    lever_b = np.asarray(cfg_w.antenna_lever_arm_b_m, float)
+    if window.initial_P.shape != (cfg_w.layout.dim,) * 2:
+        raise ValueError(f"window covariance {window.initial_P.shape} does not match the filter's "
+                         f"{cfg_w.layout.dim} states")
+    kf = ErrorStateKF(cfg_w, window.initial_state, window.initial_P)
+    lever_b = cfg_w.antenna_lever_arm_b_m
     rec: dict[str, list] = {}
     gnss, j = window.gnss, 0
     t_prev = window.t0_s
@@ -90,7 +83,7 @@ def replay(window: DataWindow, cfg: FilterConfig, freqs_radps) -> WindowPass:
         while j < len(gnss) and gnss[j].t_s <= t + 1e-9:
             meas = gnss[j]
             j += 1
-            ctx = ModelContext(lever_b, _omega_nb_b(kf, imu), meas.t_s - t)
+            ctx = ModelContext.at(kf, imu, lever_b).shifted(meas.t_s - t)
             nu, H, R = kf.model(meas, ctx)
             S = H @ kf.P @ H.T + R
             res = kf.update(meas.kind, meas.t_s, nu, H, R)
