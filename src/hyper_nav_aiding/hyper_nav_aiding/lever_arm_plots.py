@@ -11,8 +11,10 @@ import numpy as np  # noqa: E402
 
 
 def write_plots(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
-    out = [_rewards(result, out_dir / "reward_per_episode.png"),
-           _frequencies(result, out_dir / "frequency_estimates.png")]
+    out = []
+    if result.get("table5") and result.get("compare"):
+        out += [_rewards(result, out_dir / "reward_per_episode.png"),
+                _frequencies(result, out_dir / "frequency_estimates.png")]
     if result.get("navigation"):
         out.append(_navigation(result["navigation"], out_dir / "navigation_errors.png"))
     if result.get("surface"):

@@ -326,7 +326,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10, help="random seeds for Table 5")
     ap.add_argument("--compare-seeds", type=int, default=3, help="seeds for the identifier comparison")
     ap.add_argument("--out", default="results/seed000_rl_dlac", help="output directory (JSON, PNGs)")
-    ap.add_argument("--skip-bound", action="store_true", help="skip parts 1-2 (bound and surface)")
+    ap.add_argument("--parts", default="1,2,3,4,5", help="parts to run (comma-separated; 4 and 5 need 3); "
+                    "results of parts not run are kept from an existing JSON in --out")
     args = ap.parse_args(argv)
     setup = SHORT if args.short else Setup()
     n_seeds = 1 if args.short else args.seeds
@@ -338,24 +339,34 @@ def main(argv=None) -> int:
     def log(msg=""):
         print(msg, flush=True)
 
-    result = {"paper": PAPER, "setup": _public(dataclasses.asdict(setup))}
-    if not args.skip_bound:
+    parts = {int(x) for x in args.parts.split(",")}
+    if parts & {4, 5} and 3 not in parts:
+        ap.error("parts 4 and 5 need part 3")
+    json_path = out_dir / "seed000_rl_dlac.json"
+    result = json.loads(json_path.read_text()) if json_path.exists() and parts != {1, 2, 3, 4, 5} else {}
+    result.update({"paper": PAPER, "setup": _public(dataclasses.asdict(setup))})
+    if 1 in parts:
         log("1. Cramer-Rao bound of (w1, w2, w3) from one window, 1-sigma relative (mean data):")
         result["bound"] = bound_table(setup, log)
+    if 2 in parts:
         log("\n2. Reward surface around the truth (one frequency varied, others true):")
         result["surface"] = reward_surface(setup, log)
-    log(f"\n3. Table 5 over {n_seeds} seeds ({setup.scenario}):")
-    t5 = table5(setup, range(n_seeds), log)
-    result["table5"] = t5
-    print_table5(t5, log)
-    log(f"\n4. Identifiers on the same windows and budget ({n_cmp} seeds):")
-    ex = excited_runs(setup, range(n_cmp), log)
-    result["compare"] = compare({"paper": t5["runs"][:n_cmp], "excited": ex}, log)
-    log("\n5. Navigation errors over the flight (Figs. 10-11):")
-    from .lever_arm_study import navigation_errors
-    result["navigation"] = navigation_errors(setup, t5["runs"][0], log)
+    if 3 in parts:
+        log(f"\n3. Table 5 over {n_seeds} seeds ({setup.scenario}):")
+        t5 = table5(setup, range(n_seeds), log)
+        result["table5"] = t5
+        print_table5(t5, log)
+    if 4 in parts:
+        log(f"\n4. Identifiers on the same windows and budget ({n_cmp} seeds):")
+        ex = excited_runs(setup, range(n_cmp), log)
+        result["compare"] = compare({"paper": t5["runs"][:n_cmp], "excited": ex}, log)
+    if 5 in parts:
+        log("\n5. Navigation errors over the flight (Figs. 10-11):")
+        from .lever_arm_study import navigation_errors
+        result["navigation"] = navigation_errors(setup, t5["runs"][0], log)
     result["wall_s"] = time.perf_counter() - t_start
-    (out_dir / "seed000_rl_dlac.json").write_text(json.dumps(_public(result), indent=1))
+    result = _public(result)
+    json_path.write_text(json.dumps(result, indent=1))
     from .lever_arm_plots import write_plots
     pngs = write_plots(result, out_dir)
     log(f"\nwrote {out_dir / 'seed000_rl_dlac.json'} and {', '.join(p.name for p in pngs)} "

@@ -45,12 +45,15 @@ SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
+# aiding nodes started when their scenario block is present: node -> (block, topics it subscribes);
+# their ROS parameters are the filter configuration (filter.*) and the block's fields (dotted names)
+OPTIONAL_AIDING = {"lever_arm": ("lever_arm_learning", ["imu/data_raw", "gnss/fix", "gnss/vel", "nav/state"])}
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
                "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
                "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
-               "player": ("hyper_nav_sim", "player")}
+               "player": ("hyper_nav_sim", "player"), "lever_arm": ("hyper_nav_aiding", "lever_arm_node")}
 
 
 def executable(name: str) -> str:
@@ -103,6 +106,19 @@ def fusion_parameters(sc: Scenario) -> dict:
     return params
 
 
+def aiding_parameters(sc: Scenario, block: str) -> dict:
+    """An aiding node's ROS parameters: the filter configuration it replays
+    with (``filter.<field>``) and its scenario block flattened to dotted names."""
+    def flat(d, prefix=""):
+        out = {}
+        for k, v in d.items():
+            out.update(flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
+        return out
+    params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
+    params.update(flat(sc.data[block]))
+    return params
+
+
 class Graph:
     def __init__(self, scenario: str | Scenario = "default", record: str | os.PathLike | None = None,
                  nodes=None, overrides: dict | None = None,
@@ -115,7 +131,8 @@ class Graph:
         self.record = pathlib.Path(record) if record else None
         if nodes is None:
             nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
-                                               if block in self.scenario.data) + ("fusion",)
+                                               if block in self.scenario.data) + ("fusion",) + \
+                tuple(n for n, (block, _) in OPTIONAL_AIDING.items() if block in self.scenario.data)
         self.nodes = tuple(nodes)
         self.extra = dict(extra_subscribers or {})
         self.node_params = node_params or {}
@@ -127,11 +144,14 @@ class Graph:
         self._fusion_inputs = fusion_inputs(self.scenario)
 
     # ---- parameters ------------------------------------------------------------
-    def _subscribers(self, topics) -> int:
-        """How many subscriptions the publishers of these topics must see."""
+    def _subscribers(self, topics, aiding: bool = True) -> int:
+        """How many subscriptions the publishers of these topics must see
+        (``aiding``: counting the aiding nodes that subscribe one of them)."""
         n = 1 if self.record else 0
         if "fusion" in self.nodes and self._fusion_inputs & set(topics):
             n += 1
+        if aiding:
+            n += sum(1 for a, (_, inputs) in OPTIONAL_AIDING.items() if a in self.nodes and set(inputs) & set(topics))
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
     def _params(self, name: str) -> dict:
@@ -146,9 +166,12 @@ class Graph:
                  "min_subscribers": self._subscribers(["truth/state"])}
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
-            p["min_output_subscribers"] = self._subscribers(FUSION_OUTPUTS)
+            # one count for all three outputs: the aiding nodes (nav/state only) are not waited for
+            p["min_output_subscribers"] = self._subscribers(FUSION_OUTPUTS, aiding=False)
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"])}
+        elif name in OPTIONAL_AIDING:
+            p = aiding_parameters(self.scenario, OPTIONAL_AIDING[name][0])
         else:
             p = {}
         p.update(self.node_params.get(name, {}))

@@ -17,53 +17,35 @@ the filter configuration (``filter.*``, as the fusion node's).
 from __future__ import annotations
 
 import time
-from dataclasses import fields
-
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from hyper_nav_msgs.msg import ModelUpdate
 from hyper_nav_msgs.msg import NavState as NavStateMsg
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, NavSatFix
 
 from hyper_nav_filter import conversions
-from hyper_nav_filter.core.config import FilterConfig
-from hyper_nav_filter.ros_util import diagnostic_array, publisher_qos, run_node
+from hyper_nav_filter.core.config import ALL_PARAMS, FilterConfig
+from hyper_nav_filter.ros_util import declare_params, diagnostic_array, publisher_qos, run_node
 
 from .. import lever_arm_conversions as lac
-from ..core.lever_arm.config import PARAMETERS, LeverArmLearningConfig
+from ..core.lever_arm.config import PARAMS, LeverArmLearningConfig
 from ..core.lever_arm.monitor import ReestimationMonitor
 from ..core.lever_arm.worker import ReestimationWorker
 
 
-def _descriptor(default, rng, description) -> ParameterDescriptor:
-    d = ParameterDescriptor(description=description)
-    if isinstance(default, str):
-        d.additional_constraints = f"one of {list(rng)}"
-    elif isinstance(default, int):
-        d.integer_range = [IntegerRange(from_value=int(rng[0]), to_value=int(rng[1]), step=0)]
-    else:
-        d.floating_point_range = [FloatingPointRange(from_value=float(rng[0]), to_value=float(rng[1]), step=0.0)]
-    return d
-
-
 class LeverArmLearningNode(Node):
-    def __init__(self):
-        super().__init__("lever_arm_learning")
-        fcfg = {}
-        for f in fields(FilterConfig):
-            if f.init:
-                default = list(f.default) if isinstance(f.default, tuple) else f.default
-                fcfg[f.name] = self.declare_parameter(f"filter.{f.name}", default).value
-        self.filter_cfg = FilterConfig.from_dict(fcfg)
-        values = {name: self.declare_parameter(name, default, _descriptor(default, rng, desc)).value
-                  for name, (default, rng, desc) in PARAMETERS.items()}
-        self.p = LeverArmLearningConfig.from_flat(values)
+    def __init__(self, **node_kwargs):
+        """``node_kwargs``: rclpy Node options (tests pass a context and parameter overrides)."""
+        super().__init__("lever_arm_learning", **node_kwargs)
+        self.filter_cfg = FilterConfig(**declare_params(self, ALL_PARAMS, "filter.", "filter."))
+        self.p = LeverArmLearningConfig.from_flat(declare_params(self, PARAMS), "")
         self.freqs_radps = np.asarray(self.filter_cfg.lever_arm_natural_freq_radps, float)
         self.monitor = ReestimationMonitor(self.p)
-        self.worker = ReestimationWorker()
+        # the DDPG worker imports jax and compiles the networks once, at start
+        self.worker = ReestimationWorker(warm_up=self.p.reestimation.method == "ddpg", grace_s=self.p.worker_grace_s)
+        self._closing = False
         qos = publisher_qos(self.p.qos_depth)
         self.pub_update = self.create_publisher(ModelUpdate, "nav/model_update", publisher_qos(10))
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
@@ -78,6 +60,7 @@ class LeverArmLearningNode(Node):
                                       "rejected_nav_state_layout", "jobs_started", "jobs_accepted", "jobs_rejected",
                                       "jobs_failed", "jobs_timed_out", "model_updates_published")}
         self._imu_t = None
+        self._last_trigger_t = float("nan")
         self._job = None                 # {"t_trigger", "window_t0", "window_t1"}
         self._last = "none yet"
         self._last_ok = True
@@ -141,11 +124,14 @@ class LeverArmLearningNode(Node):
         self.worker.submit((window, self.filter_cfg, self.freqs_radps.copy(), self.p.reestimation),
                            self.p.reestimation.timeout_s)
         self._job = {"t_trigger": state.t_s, "window": (window.t0_s, window.t_end_s)}
+        self._last_trigger_t = state.t_s
         self.counts["jobs_started"] += 1
         self.get_logger().info(f"re-estimation started at t={state.t_s:.2f} s on the window "
                                f"[{window.t0_s:.2f}, {window.t_end_s:.2f}] s ({self.p.reestimation.method})")
 
     def _poll_worker(self):
+        if self._closing:
+            return
         out = self.worker.poll()
         if out is None:
             return
@@ -176,6 +162,11 @@ class LeverArmLearningNode(Node):
 
     # ---- diagnostics -------------------------------------------------------------------
     def on_shutdown(self):
+        """Final /diagnostics (a job still running is abandoned: the model stays), then stop the worker."""
+        if self.worker.busy:
+            self._last, self._last_ok = ("abandoned at shutdown while running; filter stays on "
+                                         f"{np.round(self.freqs_radps, 4).tolist()} rad/s"), False
+        self._closing = True
         self._publish_diagnostics()
         self.worker.close()
 
@@ -191,6 +182,7 @@ class LeverArmLearningNode(Node):
         c["worker_ready"] = self.worker.ready
         c["worker_restarts"] = self.worker.n_restarts
         c["last_reestimation"] = self._last
+        c["last_trigger_t_s"] = f"{self._last_trigger_t:.3f}"
         for k, (n, s, mx) in self.cb_time.items():
             c[f"callback_{k}_count"] = n
             c[f"callback_{k}_mean_ms"] = f"{1e3 * s / max(n, 1):.3f}"

@@ -1,11 +1,15 @@
-"""The lever-arm learning node's parameters: one table (name, default,
-range, description), read from the scenario's ``lever_arm_learning:`` block
-(nested mapping, dotted names below) or from ROS parameters, into one typed
-object; errors name the field (``lever_arm_learning.trigger.threshold_m: ...``).
+"""The lever-arm learning node's parameters, declared once
+(``hyper_nav_filter.core.params.ParamSpec``: type, default, range,
+description): they validate the scenario's ``lever_arm_learning:`` block
+(nested mapping, dotted names below), declare the node's ROS parameters with
+descriptors, and fill one typed object; errors name the field
+(``lever_arm_learning.trigger.threshold_m: expected a number, got 'three'``).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from hyper_nav_filter.core.params import FLOAT, INT, STR, ConfigError, ParamSpec, check_all, nonneg, positive
 
 from . import ddpg
 from .env import REWARD_KINDS, EnvConfig
@@ -14,34 +18,40 @@ from .trigger import TriggerConfig
 
 BLOCK = "lever_arm_learning"
 
-# name: (default, (min, max) or choices, description)
-PARAMETERS = {
-    "trigger.threshold_m": (3.0, (0.0, 1e6), "fire when the mean position residual |nav - gnss| exceeds this (m)"),
-    "trigger.release_m": (2.0, (0.0, 1e6), "re-arm once the statistic is below this (m, < threshold: hysteresis)"),
-    "trigger.cooldown_s": (30.0, (0.0, 1e6), "no new firing within this time after one (s, sim time)"),
-    "trigger.averaging_s": (2.0, (0.0, 600.0), "moving average of the residual vector (s; 0: latest fix only)"),
-    "window_s": (10.0, (0.5, 600.0), "length of the re-estimation window of IMU and GNSS data (s)"),
-    "state_period_s": (1.0, (0.02, 60.0), "keep a fused state (window start candidate) every this (s)"),
-    "method": ("ddpg", METHODS, "ddpg (the paper) or cmaes, nelder_mead, max_likelihood"),
-    "budget_passes": (250, (8, 100000), "filter passes per re-estimation (Table 3: 50 episodes x 5 steps)"),
-    "timeout_s": (120.0, (1.0, 3600.0), "wall-time limit of one re-estimation (s); past it the model stays"),
-    "min_improvement_m": (0.0, (0.0, 1e6), "publish only if the reward improves by more than this (m)"),
-    "seed": (0, (0, 2**31 - 1), "seed of the agent / identifier"),
-    "update_lead_s": (0.1, (0.0, 10.0), "model update epoch = newest IMU stamp seen + this (s)"),
-    "env.max_rel": (0.25, (1e-3, 0.99), "search box: model in force x (1 +- max_rel)"),
-    "env.action_scale": (0.05, (1e-4, 0.99), "largest frequency change per step, relative"),
-    "env.max_steps": (5, (1, 1000), "steps per episode (Table 3: 5)"),
-    "env.reward_kind": ("rms", REWARD_KINDS, "reward = -position error: rms over the window or final fix"),
-    "agent.episodes": (50, (1, 100000), "DDPG episodes (Table 3: 50)"),
-    "agent.actor_lr": (0.001, (1e-7, 1.0), "actor learning rate (Table 3)"),
-    "agent.critic_lr": (0.002, (1e-7, 1.0), "critic learning rate (Table 3)"),
-    "agent.memory": (250, (1, 1000000), "replay memory capacity (Table 3)"),
-    "agent.tau": (0.01, (1e-6, 1.0), "soft update of the target networks (Table 3)"),
-    "agent.batch": (32, (1, 4096), "minibatch size (our choice)"),
-    "agent.gamma": (0.9, (0.0, 1.0), "discount (our choice)"),
-    "diagnostics_period_s": (1.0, (0.05, 60.0), "period of /diagnostics (s, wall clock)"),
-    "qos.depth": (2000, (1, 100000), "subscription depth"),
-}
+PARAMS = (
+    nonneg("trigger.threshold_m", FLOAT, 3.0, "fire when the mean position residual |nav - gnss| exceeds this (m)"),
+    nonneg("trigger.release_m", FLOAT, 2.0, "re-arm once the statistic is below this (m, < threshold: hysteresis)"),
+    nonneg("trigger.cooldown_s", FLOAT, 30.0, "no new firing within this time after one (s, sim time)"),
+    ParamSpec("trigger.averaging_s", FLOAT, 2.0, "moving average of the residual vector (s; 0: latest fix only)",
+              lo=0.0, hi=600.0),
+    ParamSpec("window_s", FLOAT, 10.0, "length of the re-estimation window of IMU and GNSS data (s)", lo=0.5, hi=600.0),
+    ParamSpec("state_period_s", FLOAT, 1.0, "keep a fused state (window start candidate) every this (s)",
+              lo=0.02, hi=60.0),
+    ParamSpec("method", STR, "ddpg", "ddpg (the paper) or cmaes, nelder_mead, max_likelihood", choices=METHODS),
+    ParamSpec("budget_passes", INT, 250, "filter passes per re-estimation (Table 3: 50 episodes x 5 steps)",
+              lo=8, hi=100000),
+    ParamSpec("timeout_s", FLOAT, 120.0, "wall-time limit of one re-estimation (s); past it the model stays",
+              lo=1e-3, hi=3600.0),
+    positive("worker_grace_s", FLOAT, 5.0, "a job still running timeout_s + this (s) is killed"),
+    nonneg("min_improvement_m", FLOAT, 0.0, "publish only if the reward improves by more than this (m)"),
+    ParamSpec("seed", INT, 0, "seed of the agent / identifier", lo=0, hi=2**31 - 1),
+    ParamSpec("update_lead_s", FLOAT, 0.1, "model update epoch = newest IMU stamp seen + this (s)", lo=0.0, hi=10.0),
+    ParamSpec("env.max_rel", FLOAT, 0.25, "search box: model in force x (1 +- max_rel)", lo=1e-3, hi=0.99),
+    ParamSpec("env.action_scale", FLOAT, 0.05, "largest frequency change per step, relative", lo=1e-4, hi=0.99),
+    ParamSpec("env.max_steps", INT, 5, "steps per episode (Table 3: 5)", lo=1, hi=1000),
+    ParamSpec("env.reward_kind", STR, "rms", "reward = -position error: rms over the window or final fix",
+              choices=REWARD_KINDS),
+    ParamSpec("agent.episodes", INT, 50, "DDPG episodes (Table 3: 50)", lo=1, hi=100000),
+    ParamSpec("agent.actor_lr", FLOAT, 0.001, "actor learning rate (Table 3)", lo=0.0, hi=1.0, lo_open=True),
+    ParamSpec("agent.critic_lr", FLOAT, 0.002, "critic learning rate (Table 3)", lo=0.0, hi=1.0, lo_open=True),
+    ParamSpec("agent.memory", INT, 250, "replay memory capacity (Table 3)", lo=1, hi=1000000),
+    ParamSpec("agent.tau", FLOAT, 0.01, "soft update of the target networks (Table 3)", lo=0.0, hi=1.0, lo_open=True),
+    ParamSpec("agent.batch", INT, 32, "minibatch size (our choice)", lo=1, hi=4096),
+    ParamSpec("agent.gamma", FLOAT, 0.9, "discount (our choice)", lo=0.0, hi=1.0),
+    ParamSpec("agent.updates_per_step", INT, 10, "gradient steps per environment step (our choice)", lo=1, hi=1000),
+    positive("diagnostics_period_s", FLOAT, 1.0, "period of /diagnostics (s, wall clock)"),
+    ParamSpec("qos.depth", INT, 2000, "subscription depth", lo=1, hi=100000),
+)
 
 
 @dataclass(frozen=True)
@@ -51,59 +61,40 @@ class LeverArmLearningConfig:
     state_period_s: float
     reestimation: ReestimationConfig
     update_lead_s: float
+    worker_grace_s: float
     diagnostics_period_s: float
     qos_depth: int
 
     @classmethod
-    def defaults(cls) -> dict:
-        return {k: v[0] for k, v in PARAMETERS.items()}
-
-    @classmethod
-    def from_flat(cls, values: dict, prefix: str = BLOCK) -> "LeverArmLearningConfig":
-        """From dotted names (ROS parameters); missing names take the defaults."""
-        unknown = sorted(set(values) - set(PARAMETERS))
-        if unknown:
-            raise ValueError(f"{prefix}: unknown field(s) {unknown}")
-        v = {**cls.defaults(), **values}
-        for name, (default, rng, _) in PARAMETERS.items():
-            x = v[name]
-            where = f"{prefix}.{name}"
-            if isinstance(default, str):
-                if x not in rng:
-                    raise ValueError(f"{where}: expected one of {list(rng)}, got {x!r}")
-                continue
-            if isinstance(x, bool) or not isinstance(x, (int, float)):
-                raise ValueError(f"{where}: expected a number, got {x!r}")
-            if isinstance(default, int) and int(x) != x:
-                raise ValueError(f"{where}: expected an integer, got {x!r}")
-            if not rng[0] <= x <= rng[1]:
-                raise ValueError(f"{where}: must be in [{rng[0]}, {rng[1]}], got {x!r}")
+    def from_flat(cls, values: dict, prefix: str = BLOCK + ".") -> "LeverArmLearningConfig":
+        """From dotted names (ROS parameters or the flattened block); missing
+        names take the defaults; ConfigError (a ValueError) names the field."""
+        v = check_all(PARAMS, values, prefix)
         try:
-            trig = TriggerConfig(float(v["trigger.threshold_m"]), float(v["trigger.release_m"]),
-                                 float(v["trigger.cooldown_s"]), float(v["trigger.averaging_s"]))
-            env = EnvConfig(float(v["env.max_rel"]), float(v["env.action_scale"]), int(v["env.max_steps"]),
-                            v["env.reward_kind"])
-            agent = ddpg.DDPGConfig(actor_lr=float(v["agent.actor_lr"]), critic_lr=float(v["agent.critic_lr"]),
-                                    episodes=int(v["agent.episodes"]), steps=int(v["env.max_steps"]),
-                                    memory=int(v["agent.memory"]), tau=float(v["agent.tau"]),
-                                    batch=int(v["agent.batch"]), gamma=float(v["agent.gamma"]))
-            rc = ReestimationConfig(v["method"], env, agent, int(v["budget_passes"]), float(v["min_improvement_m"]),
-                                    True, int(v["seed"]), float(v["timeout_s"]))
+            trig = TriggerConfig(v["trigger.threshold_m"], v["trigger.release_m"], v["trigger.cooldown_s"],
+                                 v["trigger.averaging_s"])
+            env = EnvConfig(v["env.max_rel"], v["env.action_scale"], v["env.max_steps"], v["env.reward_kind"])
+            agent = ddpg.DDPGConfig(actor_lr=v["agent.actor_lr"], critic_lr=v["agent.critic_lr"],
+                                    episodes=v["agent.episodes"], steps=v["env.max_steps"], memory=v["agent.memory"],
+                                    tau=v["agent.tau"], batch=v["agent.batch"], gamma=v["agent.gamma"],
+                                    updates_per_step=v["agent.updates_per_step"])
+            rc = ReestimationConfig(v["method"], env, agent, v["budget_passes"], v["min_improvement_m"], True,
+                                    v["seed"], v["timeout_s"])
         except ValueError as exc:
-            raise ValueError(f"{prefix}.{exc}") from None
-        return cls(trig, float(v["window_s"]), float(v["state_period_s"]), rc, float(v["update_lead_s"]),
-                   float(v["diagnostics_period_s"]), int(v["qos.depth"]))
+            raise ConfigError(f"{prefix}{exc}") from None
+        return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["worker_grace_s"],
+                   v["diagnostics_period_s"], v["qos.depth"])
 
     @classmethod
     def from_block(cls, block: dict | None, prefix: str = BLOCK) -> "LeverArmLearningConfig":
         """From the scenario's nested ``lever_arm_learning:`` mapping."""
-        return cls.from_flat(flatten(block or {}, prefix), prefix)
+        return cls.from_flat(flatten(block or {}, prefix), prefix + ".")
 
 
 def flatten(block: dict, prefix: str = BLOCK) -> dict:
     """{'trigger': {'threshold_m': 3}} -> {'trigger.threshold_m': 3}."""
     if not isinstance(block, dict):
-        raise ValueError(f"{prefix}: expected a mapping, got {block!r}")
+        raise ConfigError(f"{prefix}: expected a mapping, got {block!r}")
     out = {}
     for k, v in block.items():
         if isinstance(v, dict):

@@ -1,7 +1,8 @@
 """The node's logic without ROS (same core live and offline): buffer the
 IMU increments, GNSS measurements and fused states, form the position
-residual fused - GNSS at each fix epoch (ENU m), feed the trigger, and cut the
-window when it fires (section III.A, Fig. 5)."""
+residual fused - GNSS at each fix epoch (ENU m), feed the trigger once the
+buffer holds a full window, and cut the window when it fires (section III.A,
+Fig. 5)."""
 from __future__ import annotations
 
 from collections import Counter
@@ -44,6 +45,9 @@ class ReestimationMonitor:
         for k in [k for k in self._fixes if k < (state.t_s - 10.0) * 1e3]:
             del self._fixes[k]
         if fix is None or state.t_s < self.monitor_from_s:
+            return None
+        if not self.buffer.covers(self.cfg.window_s, state.t_s):
+            self.counters["not_ready"] += 1         # the trigger starts once a window can be cut
             return None
         res = earth.position_error_enu_m(state.lat_rad, state.lon_rad, state.alt_m, fix.lat_rad, fix.lon_rad,
                                          fix.alt_m)

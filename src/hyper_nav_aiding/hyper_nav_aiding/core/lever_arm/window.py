@@ -105,6 +105,13 @@ class WindowBuffer:
             while q and key(q[0]) < t_min:
                 q.popleft()
 
+    def covers(self, duration_s: float, t_end_s: float) -> bool:
+        """True when a window of ``duration_s`` ending at ``t_end_s`` can be cut."""
+        t_start = t_end_s - duration_s
+        t0 = next((s[0] for s in reversed(self._states) if s[0] <= t_start + 1e-9), None)
+        return t0 is not None and bool(self._imu) and self._imu[0][0] <= t0 + 0.5 * duration_s \
+            and self._imu[-1][0] >= t_end_s - 1e-9
+
     def window(self, duration_s: float, t_end_s: float | None = None) -> DataWindow | None:
         """The window ending at ``t_end_s`` (default: the latest IMU sample)
         and starting at the latest stored fused state at or before

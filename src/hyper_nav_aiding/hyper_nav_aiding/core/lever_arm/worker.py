@@ -96,8 +96,9 @@ class ReestimationWorker:
                 job_id = self._running["id"]
                 self._running = None
                 status = "timeout" if self._proc.is_alive() else "error"
+                value = elapsed if status == "timeout" else f"worker process died (exit code {self._proc.exitcode})"
                 self._restart()
-                return JobOutcome(job_id, status, elapsed if status == "timeout" else "worker process died", elapsed)
+                return JobOutcome(job_id, status, value, elapsed)
         return None
 
     def _restart(self) -> None:

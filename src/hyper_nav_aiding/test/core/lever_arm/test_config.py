@@ -16,10 +16,11 @@ def test_seed000_elastic_block_gives_table3():
 
 @pytest.mark.parametrize("block, message", [
     ({"trigger": {"threshold_m": "three"}}, "lever_arm_learning.trigger.threshold_m: expected a number"),
-    ({"trigger": {"threshold_m": 1.0, "release_m": 2.0}}, "trigger.release_m"),
+    ({"trigger": {"threshold_m": 1.0, "release_m": 2.0}}, "lever_arm_learning.trigger.release_m"),
     ({"method": "sgd"}, "lever_arm_learning.method: expected one of"),
     ({"env": {"max_steps": 2.5}}, "lever_arm_learning.env.max_steps: expected an integer"),
-    ({"windows_s": 3.0}, "unknown field"),
+    ({"windows_s": 3.0}, "lever_arm_learning.windows_s: unknown field .*did you mean 'window_s'"),
+    ({"window_s": 0.1}, "lever_arm_learning.window_s: must be >= 0.5"),
 ])
 def test_errors_name_the_field(block, message):
     with pytest.raises(ValueError, match=message):
