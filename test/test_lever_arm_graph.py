@@ -26,7 +26,7 @@ from hyper_nav_sim.testing import TopicCollector
 
 pytestmark = pytest.mark.graph
 
-DURATION_S = 40.0
+DURATION_S = 30.0
 RTF = 2.0
 LATE_S = 0.25            # wall delay of the GNSS copies on test/late_fix (0.5 s of sim time)
 
@@ -60,13 +60,13 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
     overrides = {
         "duration_s": DURATION_S, "graph.real_time_factor": RTF,
         "filter.sources.late_fix": {"type": "gnss_fix", "topic": "test/late_fix"},
-        # fire as soon as a 3 s window is buffered (the residual statistic of 5 m fixes is ~2 m)
+        # fire as soon as a 2 s window is buffered (the residual statistic of 5 m fixes is ~2 m)
         "lever_arm_learning.trigger": {"threshold_m": 0.5, "release_m": 0.2, "cooldown_s": 1000.0,
                                        "averaging_s": 1.0},
-        "lever_arm_learning.window_s": 3.0, "lever_arm_learning.state_period_s": 0.5,
+        "lever_arm_learning.window_s": 2.0, "lever_arm_learning.state_period_s": 0.5,
         # Nelder-Mead on the reward (no jax in the worker; the best state visited improves on the
         # model in force, so it is published): the plumbing is under test here, DDPG in the core tests
-        "lever_arm_learning.method": "nelder_mead", "lever_arm_learning.budget_passes": 16,
+        "lever_arm_learning.method": "nelder_mead", "lever_arm_learning.budget_passes": 10,
         "lever_arm_learning.timeout_s": 60.0,
     }
     bag = tmp_path / "bag"
@@ -92,8 +92,9 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
             g.wait_until_done()
             updates = list(c.messages["nav/model_update"])
     run = load_run(bag)
-    for topic, d in delivery_check(run).items():
-        assert d["published"] == d["recorded"], (topic, d)
+    delivery = delivery_check(run)
+    for topic in ("imu/data_raw", "gnss/fix", "gnss/vel"):      # the inputs of the live = offline check
+        assert delivery[topic]["published"] == delivery[topic]["recorded"] > 0, (topic, delivery[topic])
 
     # the node fired once, re-estimated off its callback thread and published one update
     node = run["diagnostics"]["hyper_nav_aiding: lever_arm_learning"]

@@ -104,12 +104,15 @@ def _surface(surface, path):
     f = np.asarray(surface["fractions"])
     fig, axes = plt.subplots(2, 3, figsize=(12, 6))
     for i in range(3):
-        for label, ls in [x for x in (("noisy", "-"), ("mean", "--")) if x[0] in surface]:
+        cases = (("noisy", "-", "paper flight"), ("mean", "--", "paper flight, mean data"),
+                 ("excited_simulated", ":", "doublet flight"))
+        for label, ls, text in [x for x in cases if x[0] in surface]:
             row = surface[label][f"w{i + 1}"]
             r = np.asarray(row["reward_m"])
             n = np.asarray(row["nll"])
-            axes[0, i].plot(f, 1e3 * (r - r.max()), ls, marker="o", ms=3, label=f"{label} data")
-            axes[1, i].plot(f, n - n.min(), ls, marker="o", ms=3, label=f"{label} data")
+            axes[0, i].plot(f, 1e3 * (r - r.max()), ls, marker="o", ms=3, label=text)
+            axes[1, i].plot(f, n - n.min(), ls, marker="o", ms=3, label=text)
+            axes[1, i].set_yscale("symlog", linthresh=1.0)
         axes[0, i].set_title(f"w{i + 1} x fraction (others true)", fontsize=9)
         axes[0, i].set_ylabel("reward - max [mm]")
         axes[1, i].set_ylabel("-log likelihood - min")

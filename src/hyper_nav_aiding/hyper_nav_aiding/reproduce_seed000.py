@@ -179,6 +179,27 @@ def reward_surface(setup: Setup, log) -> dict:
                 f"max at x{setup.surface_fracs[int(np.argmax(r))]:.2f}); log-likelihood spread {np.ptp(n):8.3f} "
                 f"(max at x{setup.surface_fracs[int(np.argmin(n))]:.2f})")
         out[label] = rows
+    # the excited flight's own (simulated, not model-consistent) data: is the truth the optimum?
+    sce = _scenario(setup.excited, 0, setup)
+    fl = SimulatedFlight.from_scenario(sce)
+    s, P = fl.fused_state_at(cfg, t1 - T)
+    w = fl.window(s, P, T)
+    rows = {}
+    for i in range(3):
+        rew, nll = [], []
+        for f in setup.surface_fracs:
+            th = truth.copy()
+            th[i] *= f
+            p = replay(w, cfg, th)
+            rew.append(-position_error_m(p, lc.reestimation.env.reward_kind))
+            nll.append(p.neg_log_likelihood())
+        rows[f"w{i + 1}"] = {"reward_m": rew, "nll": nll}
+        r, n = np.array(rew), np.array(nll)
+        log(f"  excited flight, simulated data, w{i + 1}: reward max at x{setup.surface_fracs[int(np.argmax(r))]:.2f} "
+            f"({1e3 * (r.max() - r[setup.surface_fracs.index(1.0)]):.3f} mm above the truth's); log-likelihood max "
+            f"at x{setup.surface_fracs[int(np.argmin(n))]:.2f} ({n[setup.surface_fracs.index(1.0)] - n.min():.1f} "
+            f"above the truth's)")
+    out["excited_simulated"] = rows
     return out
 
 

@@ -44,7 +44,8 @@ class LeverArmLearningNode(Node):
         self.freqs_radps = np.asarray(self.filter_cfg.lever_arm_natural_freq_radps, float)
         self.monitor = ReestimationMonitor(self.p)
         # the DDPG worker imports jax and compiles the networks once, at start
-        self.worker = ReestimationWorker(warm_up=self.p.reestimation.method == "ddpg", grace_s=self.p.worker_grace_s)
+        self.worker = ReestimationWorker(warm_up=self.p.reestimation.method == "ddpg", grace_s=self.p.worker_grace_s,
+                                         nice=self.p.worker_nice)
         self._closing = False
         qos = publisher_qos(self.p.qos_depth)
         self.pub_update = self.create_publisher(ModelUpdate, "nav/model_update", publisher_qos(10))

@@ -33,6 +33,8 @@ PARAMS = (
     ParamSpec("timeout_s", FLOAT, 120.0, "wall-time limit of one re-estimation (s); past it the model stays",
               lo=1e-3, hi=3600.0),
     positive("worker_grace_s", FLOAT, 5.0, "a job still running timeout_s + this (s) is killed"),
+    ParamSpec("worker_nice", INT, 10, "scheduling priority increment of the worker process (fusion keeps real time)",
+              lo=0, hi=19),
     nonneg("min_improvement_m", FLOAT, 0.0, "publish only if the reward improves by more than this (m)"),
     ParamSpec("seed", INT, 0, "seed of the agent / identifier", lo=0, hi=2**31 - 1),
     ParamSpec("update_lead_s", FLOAT, 0.1, "model update epoch = newest IMU stamp seen + this (s)", lo=0.0, hi=10.0),
@@ -62,6 +64,7 @@ class LeverArmLearningConfig:
     reestimation: ReestimationConfig
     update_lead_s: float
     worker_grace_s: float
+    worker_nice: int
     diagnostics_period_s: float
     qos_depth: int
 
@@ -83,7 +86,7 @@ class LeverArmLearningConfig:
         except ValueError as exc:
             raise ConfigError(f"{prefix}{exc}") from None
         return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["worker_grace_s"],
-                   v["diagnostics_period_s"], v["qos.depth"])
+                   v["worker_nice"], v["diagnostics_period_s"], v["qos.depth"])
 
     @classmethod
     def from_block(cls, block: dict | None, prefix: str = BLOCK) -> "LeverArmLearningConfig":

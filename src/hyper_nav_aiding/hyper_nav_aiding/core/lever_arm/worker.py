@@ -7,13 +7,16 @@ numeric stack and compiles the DDPG networks once at start (``warm_up``)."""
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import queue
 import time
 import traceback
 from dataclasses import dataclass
 
 
-def _serve(jobs, results, warm_up: bool) -> None:
+def _serve(jobs, results, warm_up: bool, nice: int) -> None:
+    if nice:
+        os.nice(nice)
     from .reestimate import reestimate
     if warm_up:
         from . import ddpg
@@ -46,9 +49,10 @@ class JobOutcome:
 
 
 class ReestimationWorker:
-    def __init__(self, warm_up: bool = True, grace_s: float = 5.0):
+    def __init__(self, warm_up: bool = True, grace_s: float = 5.0, nice: int = 10):
         self._ctx = mp.get_context("spawn")
         self.warm_up = warm_up
+        self.nice = nice
         self.grace_s = grace_s
         self._proc = None
         self._running: dict | None = None      # {"id", "t0", "limit"}
@@ -59,7 +63,8 @@ class ReestimationWorker:
 
     def _start(self) -> None:
         self._jobs, self._results = self._ctx.Queue(), self._ctx.Queue()
-        self._proc = self._ctx.Process(target=_serve, args=(self._jobs, self._results, self.warm_up), daemon=True)
+        self._proc = self._ctx.Process(target=_serve, args=(self._jobs, self._results, self.warm_up, self.nice),
+                                       daemon=True)
         self._proc.start()
         self.ready = False
 
