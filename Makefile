@@ -6,7 +6,7 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed002 seed003 seed004
+.PHONY: setup run test clean bench help train-lekf repro-seed002 seed003 seed004 reproduce-seed000
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
@@ -15,6 +15,7 @@ help:
 	@echo "make bench - print performance figures"
 	@echo "make seed003 - reproduce seed 003 Table 3 / Figs. 6-9 with the PCRB (results/seed003; SEEDS=20 WORKERS=1)"
 	@echo "make seed004 - reproduce seed 004 Tables 4-5 (virtual GNSS under lock loss) into bags/seed004_tables"
+	@echo "make reproduce-seed000 - seed 000 RL-DLAC: bound, reward surface, Table 5 over 10 seeds, identifiers, Figs. 10-11"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
 	@echo "make train-lekf    - fly the seed 002 data set and train the L-EKF (writes the shipped parameter set)"
 	@echo "make repro-seed002 - seed 002 Table 2 / Figs. 6-8 over Monte Carlo radar noise (results/seed002)"
@@ -48,6 +49,9 @@ SEEDS ?= 20
 WORKERS ?= 1
 seed003: setup
 	@$(ENV) ros2run hyper_nav_aiding reproduce_seed003 --seeds $(SEEDS) --workers $(WORKERS) --out results/seed003
+
+reproduce-seed000: setup
+	@$(ENV) ros2run hyper_nav_aiding reproduce_seed000 --out results/seed000_rl_dlac
 
 clean:
 	rm -rf build install log

@@ -67,14 +67,16 @@ SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag
 RAW_GNSS_TOPICS = ["gnss/raw", "gnss/ephemeris"]
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
 # aiding nodes (hyper_nav_aiding): node -> (scenario block, inputs(block) -> the sensor topics it
-# takes, whose publishers wait for it; nav/state is not among them: the fusion node waits for one
-# subscriber count on all its outputs, and no nav/state flows before the IMU, whose publisher waits
-# for the node). A node starts when its block says `enabled: true` or when a fusion source takes its
-# output topic (AIDING_OUTPUTS).
+# takes, whose publishers wait for it, enabled by default when its block is present). nav/state is
+# never among the inputs: the fusion node waits for one subscriber count on all its outputs, and no
+# nav/state flows before the IMU, whose publisher waits for the node. A node starts when its block
+# enables it (``enabled``) or when a fusion source takes its output topic (AIDING_OUTPUTS).
 AIDING_NODES = {
     "virtual_gnss": ("virtual_gnss", lambda b: {"gnss/raw", "gnss/ephemeris", "imu/data_raw"} | (
-        {"gnss/fix"} if b.get("position_source") == "alpha_beta" else set())),
-    "geomag": ("geomag", lambda b: {"imu/mag"}),
+        {"gnss/fix"} if b.get("position_source") == "alpha_beta" else set()), False),
+    "geomag": ("geomag", lambda b: {"imu/mag"}, False),
+    # RL-DLAC (seed 000): its parameters are the filter configuration and its block (aiding_parameters)
+    "lever_arm": ("lever_arm_learning", lambda b: {"imu/data_raw", "gnss/fix", "gnss/vel"}, True),
 }
 AIDING_OUTPUTS = {"geomag": "geomag/fix"}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
@@ -86,6 +88,7 @@ EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim"
                "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
                "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
                "virtual_gnss": ("hyper_nav_aiding", "virtual_gnss_node"), "geomag": ("hyper_nav_aiding", "geomag_node"),
+               "lever_arm": ("hyper_nav_aiding", "lever_arm_node"),
                "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
 # ROS node names where they differ from the graph's process names
 ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
@@ -193,6 +196,19 @@ def describe_exit(returncode: int) -> str:
     return f"exit code {returncode}"
 
 
+def aiding_parameters(sc: Scenario, block: str) -> dict:
+    """An aiding node's ROS parameters: the filter configuration it replays
+    with (``filter.<field>``) and its scenario block flattened to dotted names."""
+    def flat(d, prefix=""):
+        out = {}
+        for k, v in d.items():
+            out.update(flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
+        return out
+    params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
+    params.update(flat(sc.data[block]))
+    return params
+
+
 class Graph:
     def __init__(self, scenario: str | Scenario | None = None, record: str | os.PathLike | None = None,
                  nodes=None, overrides: dict | None = None,
@@ -253,8 +269,10 @@ class Graph:
 
     def _aiding_wanted(self, name: str) -> bool:
         """An aiding node runs when its scenario block enables it or a fusion source takes its output."""
-        block = self.scenario.data.get(AIDING_NODES[name][0]) or {}
-        return bool(block.get("enabled", False)) or AIDING_OUTPUTS.get(name) in self._fusion_inputs
+        key, _, default = AIDING_NODES[name]
+        if key in self.scenario.data and (self.scenario.data[key] or {}).get("enabled", default):
+            return True
+        return AIDING_OUTPUTS.get(name) in self._fusion_inputs
 
     # ---- parameters ------------------------------------------------------------
     def _recorded(self, topic: str) -> bool:
@@ -276,7 +294,7 @@ class Graph:
         n = 1 if any(self._recorded(t) for t in topics) else 0
         if "fusion" in self.nodes and self._fusion_inputs & set(topics):
             n += 1
-        n += sum(1 for name, (block, inputs) in AIDING_NODES.items()
+        n += sum(1 for name, (block, inputs, _) in AIDING_NODES.items()
                  if name in self.nodes and inputs(self.scenario.data.get(block) or {}) & set(topics))
         if "tracker" in self.nodes and "radar/track" in topics:
             n += 1
@@ -340,6 +358,8 @@ class Graph:
             p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
             p.update({"min_subscribers": self._subscribers([AIDING_OUTPUTS["geomag"]]),
                       "qos.depth": int(self.scenario["graph.qos_depth"])})
+        elif name == "lever_arm":
+            p = aiding_parameters(self.scenario, AIDING_NODES["lever_arm"][0])
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}

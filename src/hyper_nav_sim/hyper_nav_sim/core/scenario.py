@@ -25,6 +25,7 @@ Validation rules (one place, applied to files and to ``--set`` overrides):
 from __future__ import annotations
 
 import copy
+import importlib
 import pathlib
 from dataclasses import dataclass, fields
 
@@ -101,7 +102,8 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world", "virtual_gnss")
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world", "virtual_gnss",
+                   "geomag", "lever_arm_learning")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth",
             "graph.diagnostics_period_s", "monitor.heartbeat_timeout_s", "monitor.startup_timeout_s",
@@ -113,7 +115,12 @@ MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
 # blocks whose nested content their own parser checks key by key (boost_glide_config,
 # hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids)
 OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources",   # filter.sources: sources.parse_sources
-                 "world", "virtual_gnss"}          # core.world.WorldConfig, hyper_nav_aiding VirtualGnssConfig
+                 "world",                          # core.world.WorldConfig
+                 "virtual_gnss", "geomag", "lever_arm_learning"}   # hyper_nav_aiding's configs (AIDING_BLOCKS)
+# aiding blocks the aiding package validates (errors name the field): block -> (module, function)
+AIDING_BLOCKS = {"virtual_gnss": ("hyper_nav_aiding.core.virtual_gnss_config", "VirtualGnssConfig.from_config"),
+                 "geomag": ("hyper_nav_aiding.core.geomag_config", "GeomagConfig.from_dict"),
+                 "lever_arm_learning": ("hyper_nav_aiding.core.lever_arm.config", "LeverArmLearningConfig.from_block")}
 
 
 def known_fields() -> dict[str, frozenset]:
@@ -497,16 +504,19 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 msg = str(exc)
                 raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
-    if "virtual_gnss" in data:
+    for block, (module, func) in AIDING_BLOCKS.items():
+        if block not in data:
+            continue
         try:        # the aiding package validates its own block (errors name the field)
-            from hyper_nav_aiding.core.virtual_gnss_config import VirtualGnssConfig
-        except ImportError:
-            VirtualGnssConfig = None
-        if VirtualGnssConfig is not None:
-            try:
-                VirtualGnssConfig.from_config(data["virtual_gnss"])
-            except ValueError as exc:
-                raise ScenarioError(f"{source}: {exc}") from None
+            obj = importlib.import_module(module)
+        except ImportError:         # hyper_nav_aiding not installed: its nodes cannot run either
+            continue
+        for attr in func.split("."):
+            obj = getattr(obj, attr)
+        try:
+            obj(data[block])
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: {exc}") from None
     if "tracker" in data:
         from hyper_nav_filter.core.tracking.config import TrackerConfig
         try:
