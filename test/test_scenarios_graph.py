@@ -39,13 +39,14 @@ def test_seed004_raw_gnss_over_dds(tmp_path):
 
 
 def test_seed003_barometer_and_seed002_radar_over_dds(tmp_path):
-    bag, nodes = fly(tmp_path, "seed003", duration_s=15.0, **{"graph.real_time_factor": 4.0})
+    # flight.duration_s: the nodes integrate 15 s of flight, not the 790 s of the scenario
+    bag, nodes = fly(tmp_path, "seed003", duration_s=15.0, **{"graph.real_time_factor": 4.0, "flight.duration_s": 15.0})
     assert "baro" in nodes
     recs = [r for r in read_bag(bag) if r.topic == "/baro/pressure"]
     assert len(recs) == 15
     p = [deserialize(r.raw, r.msgtype).fluid_pressure for r in recs]
     assert 2000.0 < np.mean(p) < 3000.0                   # ~2.5 kPa at 25 km (US76)
-    bag, nodes = fly(tmp_path, "seed002_s1", duration_s=15.0, **{"graph.real_time_factor": 4.0})
+    bag, nodes = fly(tmp_path, "seed002_s1", duration_s=15.0, **{"graph.real_time_factor": 4.0, "flight.duration_s": 15.0})
     assert "radar" in nodes
     tracks = [deserialize(r.raw, r.msgtype) for r in read_bag(bag) if r.topic == "/radar/track"]
     assert len(tracks) == 15
