@@ -153,6 +153,22 @@ def _fmt3(v) -> str:
 
 
 # ---- 2. reward surface --------------------------------------------------------------------
+def _surface(window, cfg, truth, fracs, reward_kind) -> dict:
+    """Reward (minus the position error) and innovation negative log-likelihood
+    of the window replayed with each frequency in turn scaled by ``fracs``."""
+    rows = {}
+    for i in range(3):
+        rew, nll = [], []
+        for f in fracs:
+            th = truth.copy()
+            th[i] *= f
+            p = replay(window, cfg, th)
+            rew.append(-position_error_m(p, reward_kind))
+            nll.append(p.neg_log_likelihood())
+        rows[f"w{i + 1}"] = {"reward_m": rew, "nll": nll}
+    return rows
+
+
 def reward_surface(setup: Setup, log) -> dict:
     sc = _scenario(setup.scenario, 0, setup)
     lc = _learning(sc)
@@ -164,17 +180,9 @@ def reward_surface(setup: Setup, log) -> dict:
         fl = SimulatedFlight.from_scenario(sc, noise_free=noise_free)
         s, P = fl.fused_state_at(cfg, t1 - T)
         w = fl.window(s, P, T)
-        rows = {}
+        rows = _surface(w, cfg, truth, setup.surface_fracs, lc.reestimation.env.reward_kind)
         for i in range(3):
-            rew, nll = [], []
-            for f in setup.surface_fracs:
-                th = truth.copy()
-                th[i] *= f
-                p = replay(w, cfg, th)
-                rew.append(-position_error_m(p, lc.reestimation.env.reward_kind))
-                nll.append(p.neg_log_likelihood())
-            rows[f"w{i + 1}"] = {"reward_m": rew, "nll": nll}
-            r, n = np.array(rew), np.array(nll)
+            r, n = np.array(rows[f"w{i + 1}"]["reward_m"]), np.array(rows[f"w{i + 1}"]["nll"])
             log(f"  {label:5s} w{i + 1}: reward spread {1e3 * np.ptp(r):8.3f} mm (reward {r.mean():8.3f} m, "
                 f"max at x{setup.surface_fracs[int(np.argmax(r))]:.2f}); log-likelihood spread {np.ptp(n):8.3f} "
                 f"(max at x{setup.surface_fracs[int(np.argmin(n))]:.2f})")
@@ -184,17 +192,9 @@ def reward_surface(setup: Setup, log) -> dict:
     fl = SimulatedFlight.from_scenario(sce)
     s, P = fl.fused_state_at(cfg, t1 - T)
     w = fl.window(s, P, T)
-    rows = {}
+    rows = _surface(w, cfg, truth, setup.surface_fracs, lc.reestimation.env.reward_kind)
     for i in range(3):
-        rew, nll = [], []
-        for f in setup.surface_fracs:
-            th = truth.copy()
-            th[i] *= f
-            p = replay(w, cfg, th)
-            rew.append(-position_error_m(p, lc.reestimation.env.reward_kind))
-            nll.append(p.neg_log_likelihood())
-        rows[f"w{i + 1}"] = {"reward_m": rew, "nll": nll}
-        r, n = np.array(rew), np.array(nll)
+        r, n = np.array(rows[f"w{i + 1}"]["reward_m"]), np.array(rows[f"w{i + 1}"]["nll"])
         log(f"  excited flight, simulated data, w{i + 1}: reward max at x{setup.surface_fracs[int(np.argmax(r))]:.2f} "
             f"({1e3 * (r.max() - r[setup.surface_fracs.index(1.0)]):.3f} mm above the truth's); log-likelihood max "
             f"at x{setup.surface_fracs[int(np.argmin(n))]:.2f} ({n[setup.surface_fracs.index(1.0)] - n.min():.1f} "

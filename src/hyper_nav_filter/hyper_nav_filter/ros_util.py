@@ -40,6 +40,16 @@ def all_matched(publishers, min_subscribers: int) -> bool:
     return all(p.get_subscription_count() >= min_subscribers for p in publishers)
 
 
+def assign_fields(msg, values: dict):
+    """Set nested message fields from a flat {'a.b.c': value} dict."""
+    for path, value in values.items():
+        obj = msg
+        parts = path.split(".")
+        for part in parts[:-1]:
+            obj = getattr(obj, part)
+        setattr(obj, parts[-1], value)
+
+
 def diagnostic_array(node, name: str, level_ok: bool, message: str, values: dict) -> DiagnosticArray:
     arr = DiagnosticArray()
     arr.header.stamp = node.get_clock().now().to_msg()

@@ -33,37 +33,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geomag_map import GeomagMap
-from .matching import (LocalFrame, MagSample, MatchResult, NavPoint, along_across_sigma, rigid_fit_2d,
-                       sequence_cov)
+from .matching import LocalFrame, MatchResult, SequenceMatcher, along_across_sigma, rigid_fit_2d, sequence_cov
 
 NEWTON_STEPS = 3
 
 
-class Iccp:
+class Iccp(SequenceMatcher):
     name = "ICCP"
-
-    def __init__(self, gmap: GeomagMap, params, field_sigma_nT: float, fix_covariance: str,
-                 isotropic_sigma_m: float, across_sigma_m: float):
-        self.map = gmap
-        self.p = params
-        self.sigma_nT = field_sigma_nT
-        self.fix_covariance = fix_covariance
-        self.iso_sigma_m = isotropic_sigma_m
-        self.across_sigma_m = across_sigma_m
-        self._seq: list[tuple[NavPoint, float]] = []
-
-    def reset(self) -> None:
-        self._seq = []
-
-    def step(self, sample: MagSample, nav: NavPoint) -> MatchResult | None:
-        m_map_alt = sample.total_nT - float(self.map.layer("dF_dh", np.rad2deg(nav.lat_rad), np.rad2deg(nav.lon_rad))) \
-            * (nav.alt_m - self.map.spec.alt_m)
-        self._seq.append((nav, m_map_alt))
-        if len(self._seq) < self.p.sequence_length:
-            return None
-        seq, self._seq = self._seq, []
-        return self._match(seq, sample.t_s)
 
     def _closest_contour_points(self, frame: LocalFrame, P: np.ndarray, m: np.ndarray, half_m: np.ndarray,
                                 centre: np.ndarray):

@@ -32,38 +32,20 @@ from __future__ import annotations
 import numpy as np
 
 from .geomag_map import GeomagMap, OffMapError
-from .matching import LocalFrame, MagSample, MatchResult, NavPoint, along_across_sigma, gradient_frame_cov
+from .matching import LocalFrame, MatchResult, SequenceMatcher, along_across_sigma
 
 
-class Magcom:
+class Magcom(SequenceMatcher):
     name = "MAGCOM"
 
     def __init__(self, gmap: GeomagMap, params, field_sigma_nT: float, fix_covariance: str,
                  isotropic_sigma_m: float, across_sigma_m: float):
-        self.map = gmap
-        self.p = params
-        self.sigma_nT = field_sigma_nT
-        self.fix_covariance = fix_covariance
-        self.iso_sigma_m = isotropic_sigma_m
-        self.across_sigma_m = across_sigma_m
+        super().__init__(gmap, params, field_sigma_nT, fix_covariance, isotropic_sigma_m, across_sigma_m)
         half = (params.area_cells - 1) // 2
         k = np.arange(-half, half + 1)
         self._di, self._dj = [a.ravel() for a in np.meshgrid(k, k, indexing="ij")]   # lat, lon cell offsets
         n_beta = int(np.floor(params.rotation_max_deg / params.rotation_step_deg + 1e-9))
         self._beta = np.deg2rad(params.rotation_step_deg * np.arange(-n_beta, n_beta + 1))
-        self._seq: list[tuple[NavPoint, float]] = []
-
-    def reset(self) -> None:
-        self._seq = []
-
-    def step(self, sample: MagSample, nav: NavPoint) -> MatchResult | None:
-        m_map_alt = sample.total_nT - float(self.map.layer("dF_dh", np.rad2deg(nav.lat_rad), np.rad2deg(nav.lon_rad))) \
-            * (nav.alt_m - self.map.spec.alt_m)
-        self._seq.append((nav, m_map_alt))
-        if len(self._seq) < self.p.sequence_length:
-            return None
-        seq, self._seq = self._seq, []
-        return self._match(seq, sample.t_s)
 
     def _match(self, seq, t_s: float) -> MatchResult:
         last = seq[-1][0]

@@ -143,3 +143,36 @@ def rigid_fit_2d(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarr
     d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
     R = Vt.T @ np.diag([1.0, d]) @ U.T
     return R, cd - R @ cs
+
+
+class SequenceMatcher:
+    """What MAGCOM and ICCP share: a sequence of ``params.sequence_length``
+    magnetometer samples, each reduced to the map altitude with the map's
+    dF/dh layer and paired with its INS position, matched as a whole
+    (``_match``, the subclass's algorithm) when complete, then started afresh."""
+    name = "sequence"
+
+    def __init__(self, gmap, params, field_sigma_nT: float, fix_covariance: str,
+                 isotropic_sigma_m: float, across_sigma_m: float):
+        self.map = gmap
+        self.p = params
+        self.sigma_nT = field_sigma_nT
+        self.fix_covariance = fix_covariance
+        self.iso_sigma_m = isotropic_sigma_m
+        self.across_sigma_m = across_sigma_m
+        self._seq: list[tuple[NavPoint, float]] = []
+
+    def reset(self) -> None:
+        self._seq = []
+
+    def step(self, sample: MagSample, nav: NavPoint) -> MatchResult | None:
+        m_map_alt = sample.total_nT - float(self.map.layer("dF_dh", np.rad2deg(nav.lat_rad), np.rad2deg(nav.lon_rad))) \
+            * (nav.alt_m - self.map.spec.alt_m)
+        self._seq.append((nav, m_map_alt))
+        if len(self._seq) < self.p.sequence_length:
+            return None
+        seq, self._seq = self._seq, []
+        return self._match(seq, sample.t_s)
+
+    def _match(self, seq, t_s: float) -> MatchResult:
+        raise NotImplementedError

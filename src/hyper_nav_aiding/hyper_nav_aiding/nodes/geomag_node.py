@@ -39,7 +39,8 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from sensor_msgs.msg import MagneticField, NavSatFix
 
-from hyper_nav_filter.ros_util import all_matched, diagnostic_array, publisher_qos, run_node, subscriber_qos
+from hyper_nav_filter.ros_util import (all_matched, assign_fields, diagnostic_array, publisher_qos, run_node,
+                                      subscriber_qos)
 
 from .. import geomag_conversions as conv
 from ..core.geomag_aiding import GeomagAiding
@@ -191,12 +192,12 @@ class GeomagNode(Node):
 
     def _publish(self, res, nav):
         q = MatchQuality()
-        _assign(q, conv.match_quality_fields(res, self.p["frame_id"]))
+        assign_fields(q, conv.match_quality_fields(res, self.p["frame_id"]))
         self.pub_quality.publish(q)
         self.counts["published geomag/quality"] += 1
         if res.valid:
             f = NavSatFix()
-            _assign(f, conv.navsatfix_fields(res, nav.alt_m, self.p["frame_id"]))
+            assign_fields(f, conv.navsatfix_fields(res, nav.alt_m, self.p["frame_id"]))
             self.pub_fix.publish(f)
             self.counts["published geomag/fix"] += 1
         elif res.reason:
@@ -226,14 +227,6 @@ class GeomagNode(Node):
         with self._lock:
             self.pub_diag.publish(diagnostic_array(self, "hyper_nav_aiding: geomag", ok, msg, c))
 
-
-def _assign(msg, values: dict):
-    for path, value in values.items():
-        obj = msg
-        parts = path.split(".")
-        for part in parts[:-1]:
-            obj = getattr(obj, part)
-        setattr(obj, parts[-1], value)
 
 
 def main(args=None):

@@ -27,7 +27,7 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from hyper_nav_filter import conversions
 from hyper_nav_filter.core.config import ALL_PARAMS, FilterConfig
-from hyper_nav_filter.ros_util import declare_params, diagnostic_array, publisher_qos, run_node
+from hyper_nav_filter.ros_util import assign_fields, declare_params, diagnostic_array, publisher_qos, run_node
 
 from .. import lever_arm_conversions as lac
 from ..core.lever_arm.config import PARAMS, LeverArmLearningConfig
@@ -151,7 +151,7 @@ class LeverArmLearningNode(Node):
             r = out.value
             t_apply = (self._imu_t if self._imu_t is not None else job["t_trigger"]) + self.p.update_lead_s
             m = ModelUpdate()
-            _assign(m, lac.model_update_fields(t_apply, r.freqs_radps, r.sigma_radps, self.get_name(), r.note()))
+            assign_fields(m, lac.model_update_fields(t_apply, r.freqs_radps, r.sigma_radps, self.get_name(), r.note()))
             self.pub_update.publish(m)
             self.counts["jobs_accepted"] += 1
             self.counts["model_updates_published"] += 1
@@ -193,14 +193,6 @@ class LeverArmLearningNode(Node):
         msg = f"last re-estimation: {self._last}" if self._last_ok else f"re-estimation {self._last}"
         self.pub_diag.publish(diagnostic_array(self, "hyper_nav_aiding: lever_arm_learning", ok, msg, c))
 
-
-def _assign(msg, values: dict):
-    for path, value in values.items():
-        obj = msg
-        parts = path.split(".")
-        for part in parts[:-1]:
-            obj = getattr(obj, part)
-        setattr(obj, parts[-1], value)
 
 
 def main(args=None):

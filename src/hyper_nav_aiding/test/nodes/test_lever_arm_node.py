@@ -19,17 +19,8 @@ from hyper_nav_aiding.sim_windows import SimulatedFlight
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.output import OutputFrames, navstate_fields
-from hyper_nav_filter.ros_util import publisher_qos
+from hyper_nav_filter.ros_util import assign_fields as _assign, publisher_qos
 from hyper_nav_sim.core.scenario import load_scenario
-
-
-def _assign(msg, values):
-    for path, value in values.items():
-        obj = msg
-        parts = path.split(".")
-        for part in parts[:-1]:
-            obj = getattr(obj, part)
-        setattr(obj, parts[-1], value)
 
 
 def _stamp(m, t):

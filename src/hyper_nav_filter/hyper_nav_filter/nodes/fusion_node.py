@@ -35,8 +35,8 @@ from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
 from ..output import (OutputFrames, navsatfix_fields, navstate_fields, odometry_fields, static_transform_fields,
                       transform_fields)
-from ..ros_util import all_matched, declare_params, diagnostic_array, latched_qos, publisher_qos, run_node, \
-    subscriber_qos
+from ..ros_util import (all_matched, assign_fields, declare_params, diagnostic_array, latched_qos, publisher_qos,
+                       run_node, subscriber_qos)
 from ..sources import REGISTRY, table_from_params
 from ..sources.router import SourceRouter
 
@@ -169,19 +169,19 @@ class FusionNode(Node):
     def _publish(self, solutions):
         for sol in solutions:
             m = NavStateMsg()
-            _assign(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
+            assign_fields(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
             self.pub_state.publish(m)
             o = Odometry()
-            _assign(o, odometry_fields(sol, self.cfg.layout, self.frames))
+            assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames))
             self.pub_odom.publish(o)
             f = NavSatFix()
-            _assign(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
+            assign_fields(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
             self.pub_fix.publish(f)
             for t in _OUTPUTS:
                 self.counts[f"published {t}"] += 1
             if self.pub_tf is not None:
                 tf = TransformStamped()
-                _assign(tf, transform_fields(sol, self.frames))
+                assign_fields(tf, transform_fields(sol, self.frames))
                 self.pub_tf.publish(TFMessage(transforms=[tf]))
                 self.counts["published tf"] += 1
 
@@ -194,7 +194,7 @@ class FusionNode(Node):
         msg = TFMessage()
         for child, position in children.items():
             t = TransformStamped()
-            _assign(t, static_transform_fields(self.engine.t_latest_s, self.frames.body, child, position))
+            assign_fields(t, static_transform_fields(self.engine.t_latest_s, self.frames.body, child, position))
             msg.transforms.append(t)
         self.pub_tf_static.publish(msg)
         self.counts["published tf_static"] += 1
@@ -246,15 +246,6 @@ class FusionNode(Node):
                                                      f"mode: {MODE_NAMES[mode]}"]), c)
         self.pub_diag.publish(arr)
 
-
-def _assign(msg, values: dict):
-    """Set nested message fields from a flat {'a.b.c': value} dict."""
-    for path, value in values.items():
-        obj = msg
-        parts = path.split(".")
-        for part in parts[:-1]:
-            obj = getattr(obj, part)
-        setattr(obj, parts[-1], value)
 
 
 def main(args=None):
