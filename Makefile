@@ -26,12 +26,10 @@ setup:
 run: setup
 	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report $(RUN_ARGS)
 
-# unit tests on two workers (2 cores), then the node-graph tests one at a time;
-# the exit code is non-zero if either part fails
+# the node-graph tests one at a time and, beside them at nice 19, the unit tests on
+# two workers (tools/run_tests.sh); TEST_ARGS go to both pytest runs
 test: setup
-	@$(ENV) python -m pytest -c pytest.ini -n 2 --dist loadgroup -m "not graph" $(TEST_ARGS); u=$$?; \
-	$(ENV) python -m pytest -c pytest.ini -m graph $(TEST_ARGS); g=$$?; \
-	echo "[make test] unit tests: exit $$u; node-graph tests: exit $$g"; test $$u -eq 0 -a $$g -eq 0
+	@bash tools/run_tests.sh $(TEST_ARGS)
 
 bench: setup
 	@$(ENV) python benchmarks/run_all.py

@@ -1,24 +1,25 @@
 """Test-session wiring for the whole suite.
 
-* ROS domain: each pytest process (each xdist worker) gets its own
-  ``ROS_DOMAIN_ID`` unless one is set, before any test starts a node, so the
-  graphs a test starts, the collectors it listens with and any graph another
-  process runs on this machine never see each other's topics.
-* ``make test`` runs the unit tests on two pytest-xdist workers (the machines
-  have 2 cores) and then the tests that start node processes over DDS
-  (marker ``graph``) in one process, one graph at a time, so no graph's
-  real-time pacing competes with a second graph or a unit test. If graph
-  tests run under xdist anyway, they all go to the same worker
-  (``--dist loadgroup``).
+* ROS domain: each pytest process gets its own ``ROS_DOMAIN_ID`` before any
+  test starts a node, so the graphs a test starts, the collectors it listens
+  with and whatever else runs on this machine never see each other's topics.
+  ``tools/run_tests.sh`` (``make test``) gives each lane its own domain; a
+  bare ``pytest`` takes one derived from its pid; a pytest-xdist worker takes
+  its master's domain + 1 + its index.
+* Tests that start node processes over DDS (marker ``graph``) all go to the
+  same xdist worker (``--dist loadgroup``) if they run under xdist at all, so
+  two graphs never overlap; ``make test`` runs them in their own lane.
 """
 import os
 
 import pytest
 
-if not os.environ.get("ROS_DOMAIN_ID"):
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "")          # "gw0", "gw1", ... under xdist
-    base = 10 + (os.getpid() % 40) * 4                          # 10..166, spaced for 4 workers
-    os.environ["ROS_DOMAIN_ID"] = str(base + (int(worker[2:]) if worker[2:].isdigit() else 0) % 4)
+_worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+if _worker[2:].isdigit():
+    os.environ["ROS_DOMAIN_ID"] = str(int(os.environ.get("HYPER_NAV_TEST_DOMAIN", "40")) + 1 + int(_worker[2:]))
+elif not os.environ.get("ROS_DOMAIN_ID"):
+    os.environ["ROS_DOMAIN_ID"] = str(10 + (os.getpid() % 50) * 4)
+os.environ.setdefault("HYPER_NAV_TEST_DOMAIN", os.environ["ROS_DOMAIN_ID"])
 
 
 def pytest_collection_modifyitems(config, items):
