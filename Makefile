@@ -6,19 +6,21 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed002 seed003 seed004 reproduce-seed000
+.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed002 repro-seed003 repro-seed004 \
+	seed003 seed004 reproduce-seed000
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
 	@echo "             (RUN_ARGS=\"--set duration_s=60\" passes more run_graph arguments; exits 1 if the report fails)"
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
-	@echo "make seed003 - reproduce seed 003 Table 3 / Figs. 6-9 with the PCRB (results/seed003; SEEDS=20 WORKERS=1)"
-	@echo "make seed004 - reproduce seed 004 Tables 4-5 (virtual GNSS under lock loss) into bags/seed004_tables"
-	@echo "make reproduce-seed000 - seed 000 RL-DLAC: bound, reward surface, Table 5 over 10 seeds, identifiers, Figs. 10-11"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
 	@echo "make train-lekf    - fly the seed 002 data set and train the L-EKF (writes the shipped parameter set)"
-	@echo "make repro-seed002 - seed 002 Table 2 / Figs. 6-8 over Monte Carlo radar noise (results/seed002)"
+	@echo "paper reproductions (our numbers beside the paper's; JSON and PNGs in results/<seed>/; ARGS=... passes options):"
+	@echo "make repro-seed000 - seed 000 RL-DLAC: bound, reward surface, Table 5 over 10 seeds, identifiers, Figs. 10-11"
+	@echo "make repro-seed002 - seed 002 Table 2 / Figs. 6-8 over Monte Carlo radar noise"
+	@echo "make repro-seed003 - seed 003 Table 3 / Figs. 6-9 with the PCRB (SEEDS=20 WORKERS=1)"
+	@echo "make repro-seed004 - seed 004 Tables 4-5 / Figs. 5-6: virtual GNSS under lock loss, both worlds (3 seeds)"
 
 setup:
 	@bash tools/setup.sh
@@ -38,18 +40,23 @@ train-lekf: setup
 	@$(ENV) ros2run hyper_nav_sim train_lekf --epochs 12
 
 repro-seed002: setup
-	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002
+	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002 $(ARGS)
 
-seed004: setup
-	@$(ENV) ros2run hyper_nav_aiding reproduce_seed004 --out bags/seed004_tables $(ARGS)
+repro-seed000: setup
+	@$(ENV) ros2run hyper_nav_aiding reproduce_seed000 --out results/seed000_rl_dlac $(ARGS)
 
 SEEDS ?= 20
 WORKERS ?= 1
-seed003: setup
-	@$(ENV) ros2run hyper_nav_aiding reproduce_seed003 --seeds $(SEEDS) --workers $(WORKERS) --out results/seed003
+repro-seed003: setup
+	@$(ENV) ros2run hyper_nav_aiding reproduce_seed003 --seeds $(SEEDS) --workers $(WORKERS) --out results/seed003 $(ARGS)
 
-reproduce-seed000: setup
-	@$(ENV) ros2run hyper_nav_aiding reproduce_seed000 --out results/seed000_rl_dlac
+repro-seed004: setup
+	@$(ENV) ros2run hyper_nav_aiding reproduce_seed004 --out results/seed004 $(ARGS)
+
+# earlier names
+reproduce-seed000: repro-seed000
+seed003: repro-seed003
+seed004: repro-seed004
 
 clean:
 	rm -rf build install log
