@@ -118,7 +118,12 @@ def declare_params(node, specs, prefix: str = "", where: str = "") -> dict:
             d.floating_point_range = [FloatingPointRange(from_value=float(s.lo), to_value=float(s.hi), step=0.0)]
         elif s.type == INT and s.lo is not None and s.hi is not None:
             d.integer_range = [IntegerRange(from_value=int(s.lo), to_value=int(s.hi), step=0)]
-        value = node.declare_parameter(prefix + s.name, s.ros_default(), d).value
+        default = s.ros_default()
+        if isinstance(default, list) and not default:       # rclpy cannot infer the type of []
+            node.declare_parameter(prefix + s.name, ptypes[s.type], d)
+            value = node.get_parameter_or(prefix + s.name, Parameter(prefix + s.name, value=[])).value
+        else:
+            value = node.declare_parameter(prefix + s.name, default, d).value
         out[s.name] = s.check(value if not isinstance(value, (list, tuple)) or s.type in (FLOATS, STRS)
                               else list(value), where or prefix)
     return out

@@ -8,17 +8,18 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import FluidPressure
 
-from hyper_nav_filter.ros_util import run_node
+from hyper_nav_filter.ros_util import declare_params, run_node
 
 from ..core import simulate
 from ..core.baro_model import BaroErrors
+from .params import frame_id
 from .sensor_base import ClockDrivenSensor
 
 
 class BaroNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("barometer")
-        self.frame_id = self.declare_parameter("frame_id", "base_link").value
+        self.frame_id = declare_params(self, (frame_id("base_link", "pressure"),))["frame_id"]
         sc = self.scenario
         t_s, p_pa, _ = simulate.baro_stream(sc, sc.trajectory())
         ok = np.isfinite(p_pa)                 # no data above the altimeter's ceiling

@@ -20,26 +20,26 @@ import numpy as np
 from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from hyper_nav_filter.ros_util import latched_qos, run_node
+from hyper_nav_filter.ros_util import declare_params, latched_qos, run_node
 
 from ..core import simulate
 from ..gnss_messages import fill_gnss_ephemeris
+from .params import GNSS, GNSS_FROM_SCENARIO, with_scenario
 from .sensor_base import ClockDrivenSensor
 
 
 class GnssNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("gnss")
-        self.frame_id = self.declare_parameter("frame_id", "gnss_antenna").value
-        self.enu_frame = self.declare_parameter("enu_frame_id", "enu").value
         sc = self.scenario
-        self.latency_s = float(self.declare_parameter("latency_s", sc["gnss.latency_s"]).value)
+        p = declare_params(self, with_scenario(GNSS, sc, GNSS_FROM_SCENARIO))
+        self.frame_id, self.enu_frame, self.latency_s = p["frame_id"], p["enu_frame_id"], p["latency_s"]
         self.pub_fix = self.create_publisher(NavSatFix, "gnss/fix", self.qos)
         self.pub_vel = self.create_publisher(TwistWithCovarianceStamped, "gnss/vel", self.qos)
         self.raw_mode = "raw" in sc.data["gnss"]
         # subscriptions gnss/raw must see before data flows (run_graph: the recorder,
         # plus the fusion node when it runs tightly coupled); -1: min(1, min_subscribers)
-        raw_need = int(self.declare_parameter("raw_min_subscribers", -1).value)
+        raw_need = p["raw_min_subscribers"]
         self.raw_min_subscribers = min(1, self.min_subscribers) if raw_need < 0 else raw_need
         if self.raw_mode:
             self._setup_raw(sc)

@@ -11,17 +11,18 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import Imu
 
-from hyper_nav_filter.ros_util import run_node
+from hyper_nav_filter.ros_util import declare_params, run_node
 
 from ..core import simulate
 from ..core.imu_model import ImuErrors
+from .params import frame_id
 from .sensor_base import ClockDrivenSensor
 
 
 class ImuNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("imu")
-        self.frame_id = self.declare_parameter("frame_id", "imu_link").value
+        self.frame_id = declare_params(self, (frame_id("imu_link", "IMU"),))["frame_id"]
         sc = self.scenario
         self.stream = simulate.imu_stream(sc, sc.trajectory())
         err = ImuErrors.from_scenario(sc)

@@ -5,16 +5,17 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import MagneticField
 
-from hyper_nav_filter.ros_util import run_node
+from hyper_nav_filter.ros_util import declare_params, run_node
 
 from ..core import simulate
+from .params import frame_id
 from .sensor_base import ClockDrivenSensor
 
 
 class MagNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("magnetometer")
-        self.frame_id = self.declare_parameter("frame_id", "magnetometer").value
+        self.frame_id = declare_params(self, (frame_id("magnetometer", "magnetometer"),))["frame_id"]
         sc = self.scenario
         self.t_s, self.field_T = simulate.mag_stream(sc, sc.trajectory())
         var = (sc["magnetometer.noise_nT"] * 1e-9) ** 2

@@ -34,10 +34,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from hyper_nav_filter.ros_util import publisher_qos, run_node
+from hyper_nav_filter.ros_util import declare_params, publisher_qos, run_node
 
 from ..core.liveness import ERROR, OK, STALE, WARN, LivenessConfig, LivenessMonitor, StreamSpec
-from .recorder import string_array_param
+from .params import MONITOR
 
 LEVEL = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR,
          STALE: DiagnosticStatus.STALE}
@@ -47,26 +47,23 @@ NAME = "hyper_nav_sim: monitor"
 class MonitorNode(Node):
     def __init__(self):
         super().__init__("monitor")
-        nodes = string_array_param(self, "nodes")
-        topics = [t.lstrip("/") for t in string_array_param(self, "streams")]
-        self.declare_parameter("stream_timeouts_s", [3.0] * max(len(topics), 1))
-        timeouts = list(self.get_parameter("stream_timeouts_s").value)
+        p = declare_params(self, MONITOR)
+        topics = [t.lstrip("/") for t in p["streams"]]
+        timeouts = list(p["stream_timeouts_s"])
         if len(timeouts) != len(topics) and topics:
             raise ValueError(f"stream_timeouts_s {timeouts} must give one timeout per stream {topics}")
-        critical = {t.lstrip("/") for t in string_array_param(self, "critical_streams")}
-        end_s = float(self.declare_parameter("end_s", math.inf).value)
+        critical = {t.lstrip("/") for t in p["critical_streams"]}
         cfg = LivenessConfig(
-            nodes=tuple(nodes),
+            nodes=tuple(p["nodes"]),
             streams=tuple(StreamSpec(t, float(dt), t in critical) for t, dt in zip(topics, timeouts)),
-            heartbeat_timeout_s=float(self.declare_parameter("heartbeat_timeout_s", 5.0).value),
-            startup_timeout_s=float(self.declare_parameter("startup_timeout_s", 60.0).value),
-            end_s=end_s)
+            heartbeat_timeout_s=p["heartbeat_timeout_s"], startup_timeout_s=p["startup_timeout_s"],
+            end_s=math.inf if math.isnan(p["end_s"]) else p["end_s"])
         self.core = LivenessMonitor(cfg, time.monotonic())
         self.beats = 0
         self.pub = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, publisher_qos(1000))
         self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))
-        self.create_timer(float(self.declare_parameter("diagnostics_period_s", 1.0).value), self.publish)
+        self.create_timer(p["diagnostics_period_s"], self.publish)
         self._last_level = {}
 
     def _on_clock(self, msg: Clock) -> None:

@@ -45,8 +45,10 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 
+from hyper_nav_filter.ros_util import declare_params
 from hyper_nav_sim.core.bag import playback_qos, read_bag
-from hyper_nav_sim.nodes.recorder import message_class, string_array_param
+from hyper_nav_sim.nodes.params import PLAYER
+from hyper_nav_sim.nodes.recorder import message_class
 from hyper_nav_sim.nodes.status import NodeStatus
 
 ACK_TIMEOUT = Duration(seconds=10.0)
@@ -55,22 +57,23 @@ ACK_TIMEOUT = Duration(seconds=10.0)
 class Player(Node):
     def __init__(self):
         super().__init__("player")
-        bag = self.declare_parameter("bag", "").value
+        p = declare_params(self, PLAYER)
+        bag = p["bag"]
         if not bag:
             raise ValueError("parameter 'bag' is required")
-        self.rate = float(self.declare_parameter("rate", 1.0).value)
-        publish_clock = self.declare_parameter("publish_clock", True).value
-        self.min_subscribers = self.declare_parameter("wait_for_subscribers", 0).value
-        wait_topics = [t if t.startswith("/") else "/" + t for t in string_array_param(self, "wait_topics")]
+        self.rate = p["rate"]
+        publish_clock = p["publish_clock"]
+        self.min_subscribers = p["wait_for_subscribers"]
+        wait_topics = [t if t.startswith("/") else "/" + t for t in p["wait_topics"]]
         self.declare_parameter("wait_counts", [0])
         wait_counts = list(self.get_parameter("wait_counts").value) if wait_topics else []
         if len(wait_counts) != len(wait_topics):
             raise ValueError(f"wait_counts {wait_counts} must give one count per wait_topics entry {wait_topics}")
         self.waits = dict(zip(wait_topics, wait_counts))
-        self.wait_timeout_s = float(self.declare_parameter("wait_timeout_s", 30.0).value)
-        topics = [t if t.startswith("/") else "/" + t for t in string_array_param(self, "topics")]
-        depth = self.declare_parameter("qos_depth", 2000).value
-        self.diag_period_s = float(self.declare_parameter("diagnostics_period_s", 1.0).value)
+        self.wait_timeout_s = p["wait_timeout_s"]
+        topics = [t if t.startswith("/") else "/" + t for t in p["topics"]]
+        depth = p["qos_depth"]
+        self.diag_period_s = p["diagnostics_period_s"]
         self.ack_every = max(1, depth // 2)  # wait for acks before the history could overflow
         self.reader = read_bag(bag, topics or None)
         if not self.reader.topics:

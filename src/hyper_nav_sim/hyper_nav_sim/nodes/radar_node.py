@@ -8,16 +8,17 @@ import numpy as np
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from hyper_nav_filter.core import earth
-from hyper_nav_filter.ros_util import run_node
+from hyper_nav_filter.ros_util import declare_params, run_node
 
 from ..core import simulate
+from .params import frame_id
 from .sensor_base import ClockDrivenSensor
 
 
 class RadarNode(ClockDrivenSensor):
     def __init__(self):
         super().__init__("radar")
-        self.frame_id = self.declare_parameter("frame_id", "radar").value
+        self.frame_id = declare_params(self, (frame_id("radar", "radar track"),))["frame_id"]
         sc = self.scenario
         self.meas = simulate.radar_stream(sc, sc.trajectory())
         cfg = sc.data["radar"]

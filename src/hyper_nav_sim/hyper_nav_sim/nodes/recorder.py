@@ -38,11 +38,12 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from hyper_nav_filter.ros_util import declare_params
 from hyper_nav_sim.core.bag import INFINITE, BagWriter, playback_qos, qos_profile, typestore
+from hyper_nav_sim.nodes.params import RECORDER
 from hyper_nav_sim.nodes.status import NodeStatus
 
 NEVER_RECORD = frozenset({"/rosout", "/parameter_events"})
@@ -58,23 +59,16 @@ def message_class(msgtype: str):
     return get_message(msgtype)
 
 
-def string_array_param(node: Node, name: str) -> list:
-    """Declare a string-array parameter whose default is empty (rclpy cannot infer [])."""
-    node.declare_parameter(name, Parameter.Type.STRING_ARRAY)
-    return list(node.get_parameter_or(name, Parameter(name, value=[])).value)
-
-
 class Recorder(Node):
     def __init__(self):
         super().__init__("recorder")
-        output = self.declare_parameter("output", "").value
+        self.p = p = declare_params(self, RECORDER)
+        output = p["output"]
         if not output:
             raise ValueError("parameter 'output' (bag directory) is required")
-        self.wanted = {t if t.startswith("/") else "/" + t for t in string_array_param(self, "topics")}
-        period = self.declare_parameter("discovery_period_s", 0.2).value
-        self.declare_parameter("drain_quiet_s", 0.5)
-        self.declare_parameter("drain_max_s", 10.0)
-        self.depth = int(self.declare_parameter("qos_depth", 2000).value)
+        self.wanted = {t if t.startswith("/") else "/" + t for t in p["topics"]}
+        period = p["discovery_period_s"]
+        self.depth = p["qos_depth"]
         self.bag = BagWriter(output)
         self.subs = {}  # topic -> subscription (None: not recordable)
         self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
@@ -83,8 +77,7 @@ class Recorder(Node):
         wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(period, self.discover, clock=wall)
         self.create_timer(1.0, self.publish_counts, clock=wall)
-        self.create_timer(float(self.declare_parameter("diagnostics_period_s", 1.0).value), self.publish_status,
-                          clock=wall)
+        self.create_timer(p["diagnostics_period_s"], self.publish_status, clock=wall)
         self.get_logger().info(f"recording into {output}")
 
     @property
@@ -174,8 +167,8 @@ def main(args=None):
         executor.add_node(node)
         while not stop.is_set():
             executor.spin_once(timeout_sec=0.1)
-        quiet_s = node.get_parameter("drain_quiet_s").value
-        deadline = time.monotonic() + node.get_parameter("drain_max_s").value
+        quiet_s = node.p["drain_quiet_s"]
+        deadline = time.monotonic() + node.p["drain_max_s"]
         last, quiet_since = -1, time.monotonic()
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)

@@ -19,18 +19,20 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.ros_util import publisher_qos
+from hyper_nav_filter.ros_util import declare_params, publisher_qos
 
 from ..core.scenario import load_scenario
+from .params import SCENARIO, SENSOR, SENSOR_FROM_SCENARIO, with_scenario
 from .status import NodeStatus
 
 
 class ClockDrivenSensor(Node):
     def __init__(self, name: str):
         super().__init__(name)
-        self.scenario = load_scenario(self.declare_parameter("scenario", "default").value)
-        self.min_subscribers = self.declare_parameter("min_subscribers", 0).value
-        self.qos = publisher_qos(self.declare_parameter("qos.depth", self.scenario["graph.qos_depth"]).value)
+        self.scenario = load_scenario(declare_params(self, (SCENARIO,))["scenario"])
+        p = declare_params(self, with_scenario(SENSOR, self.scenario, SENSOR_FROM_SCENARIO))
+        self.min_subscribers = p["min_subscribers"]
+        self.qos = publisher_qos(p["qos.depth"])
         self.latency_s = 0.0
         self.status = NodeStatus(self, f"hyper_nav_sim: {name}")
         self.published = {}
@@ -42,8 +44,7 @@ class ClockDrivenSensor(Node):
         self._done_reported = False
         self._clock_sub = None
         self._wait_timer = self.create_timer(0.05, self._start_when_ready)
-        period = self.declare_parameter("diagnostics_period_s", self.scenario["graph.diagnostics_period_s"]).value
-        self.create_timer(float(period), self.publish_diagnostics)
+        self.create_timer(p["diagnostics_period_s"], self.publish_diagnostics)
 
     def publishers_to_match(self):
         """Publishers that must see ``min_subscribers`` matched subscriptions

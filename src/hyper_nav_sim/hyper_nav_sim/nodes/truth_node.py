@@ -28,37 +28,36 @@ from rosgraph_msgs.msg import Clock
 
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
-from hyper_nav_filter.ros_util import all_matched, publisher_qos, run_node
+from hyper_nav_filter.ros_util import all_matched, declare_params, publisher_qos, run_node
 
 from ..core.imu_model import ImuErrors
 from ..core.scenario import load_scenario
-from .recorder import string_array_param
+from .params import TRUTH, TRUTH_FROM_SCENARIO, with_scenario
 from .status import NodeStatus
 
 
 class TruthNode(Node):
     def __init__(self):
         super().__init__("truth")
-        sc = self.scenario = load_scenario(self.declare_parameter("scenario", "default").value)
-        self.rtf = float(self.declare_parameter("real_time_factor", sc["graph.real_time_factor"]).value)
-        self.clock_subscribers = self.declare_parameter("clock_subscribers", 0).value
-        self.clock_nodes = set(string_array_param(self, "clock_nodes"))
-        self.min_subscribers = self.declare_parameter("min_subscribers", 0).value
-        self.wait_topics = string_array_param(self, "wait_topics")
+        sc = self.scenario = load_scenario(declare_params(self, TRUTH[:1])["scenario"])
+        p = declare_params(self, with_scenario(TRUTH[1:], sc, TRUTH_FROM_SCENARIO))
+        self.rtf = p["real_time_factor"]
+        self.clock_subscribers = p["clock_subscribers"]
+        self.clock_nodes = set(p["clock_nodes"])
+        self.min_subscribers = p["min_subscribers"]
+        self.wait_topics = list(p["wait_topics"])
         self.declare_parameter("wait_counts", [0])
         self.wait_counts = list(self.get_parameter("wait_counts").value)
         if len(self.wait_counts) != len(self.wait_topics) and self.wait_topics:
             raise ValueError(f"wait_counts {self.wait_counts} must give one count per wait_topics entry "
                              f"{self.wait_topics}")
-        self.tail_s = float(self.declare_parameter("tail_s", 1.0).value)
-        self.enu_frame = self.declare_parameter("frames.enu", "enu").value
-        self.body_frame = self.declare_parameter("frames.body", "base_link").value
+        self.tail_s = p["tail_s"]
+        self.enu_frame, self.body_frame = p["frames.enu"], p["frames.body"]
         qos = publisher_qos(sc["graph.qos_depth"])
         self.pub_clock = self.create_publisher(Clock, "/clock", qos)
         self.pub_truth = self.create_publisher(NavState, "truth/state", qos)
         self.status = NodeStatus(self, "hyper_nav_sim: truth")
-        period = self.declare_parameter("diagnostics_period_s", sc["graph.diagnostics_period_s"]).value
-        self.create_timer(float(period), self._diag)
+        self.create_timer(p["diagnostics_period_s"], self._diag)
         self.step_s = 1.0 / sc["graph.clock_rate_hz"]
         self.n_steps = int(np.ceil((sc["duration_s"] + self.tail_s) / self.step_s - 1e-9))
         truth_every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
