@@ -19,7 +19,7 @@ from hyper_nav_aiding.sim_windows import SimulatedFlight
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.output import OutputFrames, navstate_fields
-from hyper_nav_filter.ros_util import assign_fields as _assign, publisher_qos
+from hyper_nav_filter.ros_util import assign_fields, publisher_qos
 from hyper_nav_sim.core.scenario import load_scenario
 
 
@@ -63,7 +63,7 @@ def flight_messages(duration_s=4.0):
                 out.append((t, "vel", v))
         for sol in eng.release():
             s = NavStateMsg()
-            _assign(s, navstate_fields(sol, cfg.layout, frames))
+            assign_fields(s, navstate_fields(sol, cfg.layout, frames))
             out.append((t, "state", s))
     return sc, cfg, out
 
@@ -96,7 +96,7 @@ def test_a_timed_out_reestimation_keeps_the_model_and_says_so():
         while any(p.get_subscription_count() < 1 for p in pubs.values()) and time.monotonic() < t_end:
             ex.spin_once(timeout_sec=0.05)
         bad = NavStateMsg()
-        _assign(bad, {"lat_rad": float("nan")})
+        assign_fields(bad, {"lat_rad": float("nan")})
         pubs["state"].publish(bad)
         for _, topic, m in msgs:
             pubs[topic].publish(m)

@@ -23,9 +23,8 @@ from ..conversions import stamp_to_s
 from ..core.tracking import params_store
 from ..core.tracking.config import TrackerConfig, TrackerConfigError
 from ..core.tracking.tracker import Tracker
-from ..ros_util import all_matched, diagnostic_array, publisher_qos, run_node, subscriber_qos
+from ..ros_util import all_matched, assign_fields, diagnostic_array, publisher_qos, run_node, subscriber_qos
 from ..tracker_output import track_fix_fields, track_vel_fields
-from .fusion_node import _assign
 
 NODE_PARAMETERS = {   # name: (default, description)
     "init.t_s": (0.0, "epoch of the initial estimate (s, sim time)"),
@@ -92,10 +91,10 @@ class TrackerNode(Node):
             return
         est = self.tracker.last
         fix = NavSatFix()
-        _assign(fix, track_fix_fields(est, self.p["frames.fix"]))
+        assign_fields(fix, track_fix_fields(est, self.p["frames.fix"]))
         self.pub_fix.publish(fix)
         vel = TwistWithCovarianceStamped()
-        _assign(vel, track_vel_fields(est, self.p["frames.enu"]))
+        assign_fields(vel, track_vel_fields(est, self.p["frames.enu"]))
         self.pub_vel.publish(vel)
         self.counts["published track/fix"] += 1
         self.counts["published track/vel"] += 1
