@@ -152,6 +152,7 @@ def _fly(sc, cfg, duration_s):
     return np.sqrt(np.mean(err["vel"] ** 2, axis=0)), eng
 
 
+@pytest.mark.slow
 def test_seed000_24_state_filter_removes_the_lever_arm_velocity_error():
     """Seed 000 elastic flight (IMU 50 Hz at the elastic lever arm, GNSS 10 Hz),
     300 s: the 18-state filter without the modal block vs the scenario's

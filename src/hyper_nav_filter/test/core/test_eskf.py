@@ -66,6 +66,7 @@ def test_config_errors_name_the_field():
     assert upd.lever_arm_natural_freq_radps == (20.0, 55.0, 113.0) and upd.gyro_bias_tau_s == 3600.0
 
 
+@pytest.mark.slow
 def test_covariance_stays_symmetric_positive_definite_over_two_hours():
     """A 2-hour hypersonic cruise (10 Hz IMU, GNSS 1 Hz): P stays symmetric
     and positive definite at every epoch (Joseph update, symmetrised predict),

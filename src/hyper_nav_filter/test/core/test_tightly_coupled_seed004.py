@@ -19,6 +19,7 @@ import pathlib
 import tempfile
 
 import numpy as np
+import pytest
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
@@ -75,6 +76,7 @@ def _rms(e):
     return float(np.sqrt(np.mean(np.sum(e ** 2, axis=1))))
 
 
+@pytest.mark.slow
 def test_tightly_coupled_beats_loosely_coupled_under_dynamics_driven_lock_loss():
     """Realistic world. Measured (200 s): TC 5.65 m RMS 3D (max 14 m; 192 epochs
     accepted, 4 gated), LC 89 m (9 fixes). The TC figure is set by the world's

@@ -123,6 +123,7 @@ def test_scalar_and_vectorised_dynamics_agree(s1, launch, s003):
             np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-13)
 
 
+@pytest.mark.slow
 def test_seed003_error_free_imu_through_mechanization_drifts_under_1m(s003):
     """Issue requirement: < 1 m over the 790 s flight at 100 Hz."""
     dt = 0.01

@@ -88,6 +88,7 @@ def test_plot_command_writes_one_png_per_scenario(tmp_path):
         assert path.exists() and path.stat().st_size > 20000
 
 
+@pytest.mark.slow
 def test_error_free_imu_stays_on_the_seed003_truth_for_790_s():
     """Issue #3: error-free sensors through the ENU mechanization of #2 drift
     < 1 m over the 790 s seed 003 flight (100 Hz, incl. the 4 g U-turn)."""

@@ -7,6 +7,7 @@ import pathlib
 
 import jax
 import numpy as np
+import pytest
 from scipy.stats import chi2
 
 from hyper_nav_filter.core.tracking import filters
@@ -52,6 +53,7 @@ def test_ekf_is_consistent_on_a_non_maneuvering_glide():
     assert np.mean((nees > lo) & (nees < hi)) > 0.6                # measured 0.75 of the epochs
 
 
+@pytest.mark.slow
 def test_training_through_the_filter_lowers_the_loss():
     """End-to-end training (RMSprop, weighted MAE, TBPTT through the L-EKF
     recursion) on four short simulated glides: the loss on those tracks (fixed

@@ -95,6 +95,7 @@ def _final_rel(sols, truth):
     return rg, ra
 
 
+@pytest.mark.slow
 def test_seed001_lci_accuracy_and_biases():
     """Seed 001 (500 Hz IMU with 100 ppm scale factors, BDS 10 m / 0.3 m/s at
     1 Hz), LCI filter with scale-factor states, per ENU axis.
@@ -135,6 +136,7 @@ def test_seed001_lci_accuracy_and_biases():
     assert np.all(np.linalg.eigvalsh(sols[-1].P) > 0)
 
 
+@pytest.mark.slow
 def test_seed001_paper_15_state_filter():
     """The paper's 15-state filter on the same data: the scale factors are
     unmodelled, so under the 7 g boost 100 ppm looks like 0.7 mg of x
