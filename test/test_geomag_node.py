@@ -41,15 +41,15 @@ def _start(tmp, ns, cfg: GeomagConfig, domain_id):
                             env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
 
-def _values(msgs, ns):
-    out = {}
-    for arr in msgs["/diagnostics"]:
+def _last_status(msgs) -> dict:
+    """The last /diagnostics status of each geomag node: 'good' (map ok) and 'bad'."""
+    diag = {}
+    for arr in list(msgs["/diagnostics"]):
         for st in arr.status:
-            if st.hardware_id == "geomag" and st.name.endswith("geomag") and any(
-                    kv.key == "algorithm" for kv in st.values):
-                out = {kv.key: kv.value for kv in st.values}
-                out["_ns"] = ns
-    return out
+            if st.name == "hyper_nav_aiding: geomag":
+                v = {kv.key: kv.value for kv in st.values}
+                diag["good" if v.get("map") == "ok" else "bad"] = v
+    return diag
 
 
 @pytest.mark.graph
@@ -113,7 +113,9 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
             ok = c.wait_for(lambda m: len(m["/good/geomag/quality"]) >= n_mag and len(m["/bad/geomag/quality"])
                             >= n_mag, 30.0)
             assert ok, (tmp_path / "good.log").read_text()[-3000:] + (tmp_path / "bad.log").read_text()[-3000:]
-            time.sleep(1.5)                                     # one more /diagnostics period
+            # the nodes' statuses (every 1 s) catch up with the last sample
+            c.wait_for(lambda m: _last_status(m).get("good", {}).get("fixes") == str(len(m["/good/geomag/fix"]))
+                       and _last_status(m).get("bad", {}).get("no_map") == str(n_mag), 15.0)
             assert all(p.poll() is None for p in procs.values()), "a geomag node exited"
             msgs = c.messages
         # good map: a fix for every in-map sample; the along-gradient error is gone
@@ -137,12 +139,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
             assert abs(V[:, 0] @ u3) > 0.999 and w[1] > 1e9 and f.position_covariance_type == 3
             assert np.sqrt(w[0]) == pytest.approx(0.5 / np.linalg.norm(g), rel=0.02)   # field_sigma / |g|
         # counters on /diagnostics (the last status of each node)
-        diag = {}
-        for arr in msgs["/diagnostics"]:
-            for st in arr.status:
-                if st.name == "hyper_nav_aiding: geomag":
-                    v = {kv.key: kv.value for kv in st.values}
-                    diag["good" if v.get("map") == "ok" else "bad"] = v
+        diag = _last_status(msgs)
         assert diag["good"]["off_map"] == "2" and diag["good"]["rejected_mag_nan"] == "1"
         assert diag["good"]["fixes"] == str(len(fixes))
         assert diag["bad"]["map"].startswith("refused") and "epoch_decimal_year" in diag["bad"]["map"]
