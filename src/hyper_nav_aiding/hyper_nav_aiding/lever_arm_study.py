@@ -44,14 +44,13 @@ def fly(flight: SimulatedFlight, cfg, updates=(), duration_s: float | None = Non
     return sols + eng.release(final=True)
 
 
-def navigation_errors(setup, run: dict, log) -> dict:
-    """The three treatments on the flight of the first Table 5 run; RL-DLAC
-    takes its learned frequencies at the window end + the fusion output delay +
-    the node's update lead (as if the re-estimation were instantaneous)."""
-    from .reproduce_seed000 import _learning, _scenario
-    sc = _scenario(setup.scenario, run["seed"], setup)
+def navigation_errors(sc, lc, run: dict, log, nav_duration_s: float | None = None) -> dict:
+    """The three treatments on scenario ``sc`` (the flight of the Table 5 run
+    ``run``; ``lc``: its lever_arm_learning configuration); RL-DLAC takes its
+    learned frequencies at the window end + the fusion output delay + the
+    node's update lead (as if the re-estimation were instantaneous); over the
+    first ``nav_duration_s`` (None: the whole flight, errors from report.skip_s)."""
     cfg = sc.filter_config()
-    lc = _learning(sc)
     flight = SimulatedFlight.from_scenario(sc)
     t_update = run["window_s"][1] + cfg.output_delay_s + lc.update_lead_s
     treatments = {
@@ -59,10 +58,10 @@ def navigation_errors(setup, run: dict, log) -> dict:
         "DLAC, Table 2": (cfg, ()),
         "RL-DLAC": (cfg, ((t_update, run["learned_radps"]),)),
     }
-    skip = float(sc["report.skip_s"]) if setup.nav_duration_s is None else 0.0
+    skip = float(sc["report.skip_s"]) if nav_duration_s is None else 0.0
     out = {"t_update_s": t_update, "skip_s": skip, "runs": {}}
     for name, (c, updates) in treatments.items():
-        sols = fly(flight, c, updates, setup.nav_duration_s)
+        sols = fly(flight, c, updates, nav_duration_s)
         t, err = per_axis_errors(sols, flight.traj)
         keep = t >= skip
         rms = {k: float(np.sqrt(np.mean(np.sum(v[keep] ** 2, axis=1)))) for k, v in err.items()}

@@ -45,6 +45,7 @@ from .core.lever_arm.crb import fisher_information
 from .core.lever_arm.env import LeverArmFrequencyEnv, position_error_m
 from .core.lever_arm.reestimate import reestimate
 from .core.lever_arm.replay import replay
+from .lever_arm_study import navigation_errors
 from .sim_windows import SimulatedFlight, model_consistent_window, triggered_window, with_gnss_sigmas
 
 PAPER = {"initial_radps": list(TABLE2_FREQ_RADPS), "true_radps": list(TABLE4_FREQ_RADPS),
@@ -385,8 +386,9 @@ def main(argv=None) -> int:
         result["compare"] = compare({"paper": t5["runs"][:n_cmp], "excited": ex}, log)
     if 5 in parts:
         log("\n5. Navigation errors over the flight (Figs. 10-11):")
-        from .lever_arm_study import navigation_errors
-        result["navigation"] = navigation_errors(setup, t5["runs"][0], log)
+        run0 = t5["runs"][0]
+        sc0 = _scenario(setup.scenario, run0["seed"], setup)
+        result["navigation"] = navigation_errors(sc0, _learning(sc0), run0, log, setup.nav_duration_s)
     result["wall_s"] = time.perf_counter() - t_start
     result = _public(result)
     json_path.write_text(json.dumps(result, indent=1))
