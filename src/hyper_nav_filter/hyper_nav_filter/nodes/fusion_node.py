@@ -249,7 +249,10 @@ class FusionNode(Node):
 
 
 def main(args=None):
-    run_node(FusionNode, args)
+    # up to 5 s for every subscriber to acknowledge the final solutions (the last
+    # output_delay_s of them go out at shutdown; at 0.3 s a loaded recorder missed
+    # 11 of 100 while a second subscriber of nav/state was shutting down too)
+    run_node(FusionNode, args, linger_s=5.0)
 
 
 if __name__ == "__main__":
