@@ -24,7 +24,6 @@ import sys
 import tempfile
 import time
 
-import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core.scenario import load_scenario
