@@ -6,7 +6,7 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed002 repro-seed003 repro-seed004 \
+.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 \
 	seed003 seed004 reproduce-seed000
 
 help:
@@ -18,6 +18,7 @@ help:
 	@echo "make train-lekf    - fly the seed 002 data set and train the L-EKF (writes the shipped parameter set)"
 	@echo "paper reproductions (our numbers beside the paper's; JSON and PNGs in results/<seed>/; ARGS=... passes options):"
 	@echo "make repro-seed000 - seed 000 RL-DLAC: bound, reward surface, Table 5 over 10 seeds, identifiers, Figs. 10-11"
+	@echo "make repro-seed001 - seed 001 HWIL figures (per-axis error bounds): Monte Carlo over 10 seeds on the LCI filter"
 	@echo "make repro-seed002 - seed 002 Table 2 / Figs. 6-8 over Monte Carlo radar noise"
 	@echo "make repro-seed003 - seed 003 Table 3 / Figs. 6-9 with the PCRB (SEEDS=20 WORKERS=1)"
 	@echo "make repro-seed004 - seed 004 Tables 4-5 / Figs. 5-6: virtual GNSS under lock loss, both worlds (3 seeds)"
@@ -41,6 +42,9 @@ train-lekf: setup
 
 repro-seed002: setup
 	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002 $(ARGS)
+
+repro-seed001: setup
+	@$(ENV) ros2run hyper_nav_sim mc_campaign --scenario seed001 --runs 10 --out results/seed001 $(ARGS)
 
 repro-seed000: setup
 	@$(ENV) ros2run hyper_nav_aiding reproduce_seed000 --out results/seed000_rl_dlac $(ARGS)

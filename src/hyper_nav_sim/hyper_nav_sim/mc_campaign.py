@@ -152,6 +152,25 @@ def _jsonable(x):
     return x
 
 
+def beside_paper(per_run: list[dict], sc) -> str:
+    """Our largest error on any axis (E, N, U) over each run after
+    report.skip_s (mean, spread and worst over the runs) beside the paper's
+    per-axis bounds of the scenario's ``report.reference_*`` fields ('' when
+    the scenario names no paper)."""
+    source = sc["report.reference_source"]
+    if not source:
+        return ""
+    lines = [f"largest |error| on any axis after {sc['report.skip_s']:g} s, per run; {len(per_run)} runs: "
+             f"mean +- std [worst], beside {source}"]
+    for b, field, unit in (("pos", "report.reference_pos_m", "m"), ("vel", "report.reference_vel_mps", "m/s"),
+                           ("att", "report.reference_att_deg", "deg")):
+        x = np.array([r[f"{b}_max_axis"] for r in per_run], float)
+        ref = sc[field]
+        lines.append(f"  {b:4s} {x.mean():9.4g} +- {x.std():8.3g} [{x.max():9.4g}] {unit:4s}"
+                     + ("" if ref is None else f"  paper: < {ref:g} per axis"))
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     from .graph import apply_overrides
     from .core.scenario import ScenarioError, load_scenario
@@ -202,6 +221,11 @@ def main(argv=None) -> int:
         print(f"{b:6s} {m['rms_3d']:10.4g} {m['mean_anees']:11.2f} {100 * m['share_in_band']:11.0f}%   [{unit}]")
     for kind, v in s["anis"].items():
         print(f"ANIS {kind}: mean {np.nanmean(v):.2f} (dof {s['anis_band'][kind]['dof']})")
+    paper = beside_paper(result["per_run"], sc)
+    if paper:
+        print(paper)
+        result["beside_paper"] = paper
+        (out_dir / "campaign.json").write_text(json.dumps(_jsonable(result), indent=1))
     print(f"[mc_campaign] wrote {out_dir / 'campaign.json'}, " + ", ".join(p.name for p in pngs))
     return 0
 

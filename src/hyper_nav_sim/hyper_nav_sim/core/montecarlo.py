@@ -158,13 +158,15 @@ def band(n_runs: int, dof: int) -> tuple[float, float]:
 
 
 def run_metrics(r: dict, skip_s: float) -> dict:
-    """Scalar figures of one run after skip_s (RMS 3D, max 3D, final, mean NEES)."""
+    """Scalar figures of one run after skip_s (RMS 3D, max 3D, largest |error| on
+    any axis, mean NEES)."""
     m = r["t_s"] >= skip_s
     out = {"k": r["k"], "seed": r["seed"]}
     for b, scale in (("pos", 1.0), ("vel", 1.0), ("att", 180.0 / math.pi)):
         e = np.linalg.norm(r["err"][b][m], axis=1) * scale
         out[f"{b}_rms_3d"] = float(np.sqrt(np.mean(e**2))) if len(e) else math.nan
         out[f"{b}_max_3d"] = float(e.max()) if len(e) else math.nan
+        out[f"{b}_max_axis"] = float(np.max(np.abs(r["err"][b][m])) * scale) if len(e) else math.nan
         out[f"{b}_mean_nees"] = float(np.mean(r["nees"][b][m])) if len(e) else math.nan
     out["gated"] = r["gated"]
     return out
