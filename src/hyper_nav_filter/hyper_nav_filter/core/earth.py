@@ -25,7 +25,8 @@ G0_MPS2 = 9.80665                  # standard gravity, for datasheet units (g, m
 def _vec3(x, y, z):
     """Stack three components along a last axis; a plain array for scalars
     (np.stack costs ~15 us per call on scalars, np.array ~1 us)."""
-    if np.ndim(x) == 0 and np.ndim(y) == 0 and np.ndim(z) == 0:
+    if (isinstance(x, float) and isinstance(y, float) and isinstance(z, float)) or \
+            (np.ndim(x) == 0 and np.ndim(y) == 0 and np.ndim(z) == 0):       # (floats first: np.ndim costs ~0.3 us)
         return np.array([x, y, z], dtype=float)
     x, y, z = np.broadcast_arrays(x, y, z)
     return np.stack([x, y, z], axis=-1)
@@ -132,7 +133,10 @@ def position_error_enu_m(lat_rad, lon_rad, alt_m, lat_ref_rad, lon_ref_rad, alt_
     the longitude difference is wrapped to [-pi, pi) (a pair of points either
     side of 180 deg is metres apart, not an Earth circumference)."""
     r_m, r_n = radii(lat_ref_rad)
-    d_lon = wrap_lon_rad(np.asarray(lon_rad, dtype=float) - lon_ref_rad)
-    return np.stack([d_lon * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
-                     (lat_rad - lat_ref_rad) * (r_m + alt_ref_m),
-                     alt_m - alt_ref_m], axis=-1)
+    if isinstance(lon_rad, float) and isinstance(lon_ref_rad, float):    # one point: the per-update hot path
+        d_lon = wrap_lon_rad(float(lon_rad - lon_ref_rad))
+    else:
+        d_lon = wrap_lon_rad(np.asarray(lon_rad, dtype=float) - lon_ref_rad)
+    return _vec3(d_lon * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
+                 (lat_rad - lat_ref_rad) * (r_m + alt_ref_m),
+                 alt_m - alt_ref_m)

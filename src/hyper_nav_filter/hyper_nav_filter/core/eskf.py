@@ -118,6 +118,7 @@ class ErrorStateKF:
         self._preprocessors = [(b, lay.value_sl(b.name)) for b in lay.value_blocks if b.preprocess is not None]
         self._propagated = [(b, lay.value_sl(b.name)) for b in lay.value_blocks
                             if type(b).propagate is not Block.propagate]
+        self._value_fields = [(b.name, b.nav_state_field, lay.value_sl(b.name)) for b in lay.value_blocks]
 
     # ---- views ------------------------------------------------------------------------
     def _values_from(self, nav: NavState) -> np.ndarray:
@@ -130,14 +131,13 @@ class ErrorStateKF:
     def view(self, t_s: float, x_nav: np.ndarray, values: np.ndarray) -> NavState:
         """The geodetic/ENU NavState of a nominal state (a fresh object)."""
         lat, lon, alt, v, C = self.frame.view(x_nav, t_s)
-        nav = NavState(t_s, lat, lon, alt, v, C)
-        for b in self.layout.value_blocks:
-            val = values[self.layout.value_sl(b.name)].copy()
-            if b.nav_state_field:
-                setattr(nav, b.nav_state_field, val)
+        fields, extra = {}, {}
+        for name, field, s in self._value_fields:
+            if field:
+                fields[field] = values[s].copy()
             else:
-                nav.extra[b.name] = val
-        return nav
+                extra[name] = values[s].copy()
+        return NavState(t_s, lat, lon, alt, v, C, extra=extra, **fields)
 
     @property
     def state(self) -> NavState:
@@ -225,7 +225,13 @@ class ErrorStateKF:
     def _predict_fast(self, imu: ImuSample) -> None:
         """``predict`` through the frame's compiled kernel (same equations as
         ``linearize`` + the mechanization); IMU pre-processing blocks and
-        nominal block propagation around it as in the reference."""
+        nominal block propagation around it as in the reference. The kernels
+        take float64 arrays; anything else is converted once here."""
+        a, b = imu.dtheta_b_rad, imu.dvel_b_mps
+        if type(a) is not np.ndarray or type(b) is not np.ndarray or a.dtype != np.float64 or b.dtype != np.float64 \
+                or not (a.flags.c_contiguous and b.flags.c_contiguous):
+            imu = ImuSample(imu.t_s, imu.dt_s, np.ascontiguousarray(a, dtype=np.float64),
+                            np.ascontiguousarray(b, dtype=np.float64))
         vals = new_vals = self.values
         if self._preprocessors:
             dt = imu.dt_s
@@ -305,9 +311,9 @@ class ErrorStateKF:
         dof = len(residual)
         acc, gated, nis_sum = self.stats.get(kind, (0, 0, 0.0))
         if self.fast:
-            status, nis, dx, P = fast_update.joseph_update(self.P, np.ascontiguousarray(H, dtype=float),
-                                                           np.ascontiguousarray(R, dtype=float),
-                                                           np.ascontiguousarray(residual), float(self.gate_threshold(dof)))
+            status, nis, dx, P = fast_update.joseph_update(
+                self.P, np.ascontiguousarray(H, dtype=float), np.ascontiguousarray(R, dtype=float),
+                np.ascontiguousarray(residual), float(self.gate_threshold(dof)))
             nis = float(nis)
         else:
             status, nis, dx, P = self._update_reference(residual, H, R, dof)
@@ -346,6 +352,7 @@ class ErrorStateKF:
     def inject(self, dx: np.ndarray) -> None:
         """Correct the nominal state with an error estimate dx (estimate -
         truth): the frame's att/vel/pos, then every block value minus its error."""
-        self.x_nav = self.frame.inject(self.x_nav, dx[:9])
+        inject = self.frame.fast_inject if self.fast else self.frame.inject
+        self.x_nav = inject(self.x_nav, dx[:9])
         if len(self.values):
             self.values = self.values - dx[9:]

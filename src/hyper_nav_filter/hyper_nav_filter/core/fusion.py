@@ -197,11 +197,13 @@ class FusionEngine:
             self._bridge_gap(t_s, w1, f1)
             dt = t_s - self.t_latest_s
             dth, dv = w1 * dt, f1 * dt
-        self._catch_up()
+        if self._dirty_from != math.inf:
+            self._catch_up()
         self._append_epoch(ImuSample(t_s, dt, dth, dv))
         self._last_dt = dt
         self.counters["imu_accepted"] += 1
-        self._trim()
+        if self._times[0] < t_s - self.cfg.reprocess_window_s:
+            self._trim()
 
     def add_measurement(self, meas) -> tuple[bool, str]:
         """Queue an aiding measurement (``meas.t_s`` is its epoch). Late ones
@@ -319,20 +321,28 @@ class FusionEngine:
 
     def _process_epoch(self, k: int, imu: ImuSample) -> None:
         prev = self._epochs[k - 1] if k > 0 else None
+        kf = self.kf
         if self._at != k - 1:
-            self.kf.restore(prev.snap if prev else self._base)
+            kf.restore(prev.snap if prev else self._base)
         old = self._epochs[k]
-        t_prev = self.kf.t_s
-        self.kf.predict(imu)
+        t_prev = kf.t_s
+        kf.predict(imu)
+        extra_Q = None
         if old is not None and old.extra_Q is not None:
-            self.kf.P = self.kf.P + old.extra_Q
-            self.kf.P_prior = self.kf.P
-        ep = _Epoch(imu, None, prev.last_accept if prev else self._base_accept,
-                    old.extra_Q if old is not None else None)
-        lo = bisect.bisect_right(self._events, (t_prev + _EPS_S,))
-        hi = bisect.bisect_right(self._events, (imu.t_s + _EPS_S,))
+            extra_Q = old.extra_Q
+            kf.P = kf.P + extra_Q
+            kf.P_prior = kf.P
+        ep = _Epoch(imu, None, prev.last_accept if prev else self._base_accept, extra_Q)
         self._epochs[k] = ep
-        self._apply(ep, self._events[lo:hi])
+        events = self._events
+        if events and events[-1][0] > t_prev + _EPS_S:
+            lo = bisect.bisect_right(events, (t_prev + _EPS_S,))
+            hi = bisect.bisect_right(events, (imu.t_s + _EPS_S,))
+            self._apply(ep, events[lo:hi])
+        else:                                     # no event in (t_prev, t]: _apply(ep, []) in short
+            ep.snap = kf.snapshot()
+            if self.keep_history:
+                ep.Phi, ep.P_prior, ep.dx = kf.last_Phi, kf.P_prior, kf.epoch_dx
         self._at = k
 
     def _apply(self, ep: "_Epoch", events) -> None:

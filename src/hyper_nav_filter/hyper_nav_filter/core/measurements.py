@@ -165,10 +165,10 @@ class ModelContext:
         t, x, vals = kf.t_s, kf.x_nav, kf.values
 
         def omega():
-            s = kf.view(t, x, vals)
+            lat, _, alt, v, C = kf.frame.view(x, t)
             w_ib = kf.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, vals)[0] / imu.dt_s
-            w_in = earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.alt_m, s.vel_enu_mps)
-            return w_ib - s.C_b_n.T @ w_in
+            w_in = earth.omega_ie_n(lat) + earth.omega_en_n(lat, alt, v)
+            return w_ib - C.T @ w_in
         return cls(lever_arm_b_m, [omega], 0.0)
 
 

@@ -18,6 +18,7 @@ values of the non-navigation blocks are one vector in the same order
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 from .blocks import NAV_BLOCKS, REGISTRY
 
@@ -43,7 +44,7 @@ class StateLayout:
             start += REGISTRY[n].size
         object.__setattr__(self, "_slices", sl)
 
-    @property
+    @cached_property
     def dim(self) -> int:
         return sum(REGISTRY[n].size for n in self.names)
 
@@ -57,7 +58,7 @@ class StateLayout:
         """The block objects, in layout order."""
         return tuple(REGISTRY[n] for n in self.names)
 
-    @property
+    @cached_property
     def value_blocks(self):
         """The non-navigation blocks, whose nominal values the filter carries."""
         return tuple(REGISTRY[n] for n in self.names[3:])

@@ -84,6 +84,10 @@ class SystemModel:
             roles[role] = np.array([lay.value_sl(b.name).start for b in lay.value_blocks if b.imu_role == role],
                                    dtype=np.int64)
         self.roles = roles
+        # the compiled predict kernels' model arguments, in their order (one tuple, built once)
+        self.fast_args = (roles["gyro_bias"], roles["accel_bias"], roles["gyro_scale"], roles["accel_scale"], self.A,
+                          self.K["att"], self.K["vel"], self.K_used["att"], self.K_used["vel"], self.G_const,
+                          self.G_body["att"], self.G_body["vel"], self.qc, self.exact)
 
     def matrices(self, F9, C_b_x, omega_ib_b_radps, f_b_mps2, omegadot_ib_b_radps2=None):
         """F (n x n), G (n x m) and the noise PSD diagonal qc (m) at one epoch,

@@ -52,3 +52,22 @@ def test_fast_path_equals_the_numpy_reference(name, extra):
         np.testing.assert_allclose(a.P, b.P, rtol=1e-9, atol=1e-9 * np.abs(b.P).max())
         for k in b.state.extra:
             np.testing.assert_allclose(a.state.extra[k], b.state.extra[k], rtol=1e-9, atol=1e-15)
+
+
+def test_small_inverse_matches_numpy_and_flags_singular():
+    from hyper_nav_filter.core.fast.linalg import inv_small
+    from hyper_nav_filter.core.fast.update import joseph_update
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 6, 12):
+        A = rng.normal(size=(n, n))
+        S = A @ A.T + 1e-3 * np.eye(n)
+        ok, Si = inv_small(S)
+        assert ok
+        np.testing.assert_allclose(Si @ S, np.eye(n), atol=1e-9 * np.linalg.cond(S))
+        np.testing.assert_allclose(Si, np.linalg.inv(S), rtol=1e-8, atol=1e-12 * np.abs(Si).max())
+    P = np.eye(4)
+    ok, _ = inv_small(np.zeros((2, 2)))
+    assert not ok
+    H = np.zeros((2, 4))                               # H P H^T + R = 0: status 2, P unchanged
+    status, nis, dx, P1 = joseph_update(P, H, np.zeros((2, 2)), np.ones(2), 10.0)
+    assert status == 2 and np.isinf(nis) and P1 is P

@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from .. import earth
-from .linalg import cross, orthonormalize, rotvec_to_C, skew
+from .linalg import cross, mm3, mv3, orthonormalize, rotvec_to_C, skew
 from .predict import couple, imu_terms, propagate_covariance
 
 A_M, E2, F_WGS, W_IE = earth.A_M, earth.E2, earth.F, earth.OMEGA_IE_RADPS
@@ -55,7 +55,8 @@ def mechanize(x, dth, dv, dth_p, dv_p, dt, out):
     w_ie, w_en = omega_in(lat_m, alt_m, v_mid_ex)
     zeta = (w_ie + w_en) * dt
     dv_f_b = dv + 0.5 * cross(dth, dv) + (cross(dth_p, dv) + cross(dv_p, dth)) / 12.0
-    dv_f_n = (np.eye(3) - 0.5 * skew(zeta)) @ (C @ dv_f_b)
+    dv_c = mv3(C, dv_f_b)
+    dv_f_n = dv_c - 0.5 * cross(zeta, dv_c)          # (I - [zeta x] / 2) C dv
     g = gravity_up(lat_m, alt_m)
     dv_g = (np.array([0.0, 0.0, -g]) - cross(2.0 * w_ie + w_en, v_mid_ex)) * dt
     v1 = v0 + dv_f_n + dv_g
@@ -71,7 +72,7 @@ def mechanize(x, dth, dv, dth_p, dv_p, dt, out):
     phi_b = dth + cross(dth_p, dth) / 12.0
     w_ie2, w_en2 = omega_in(lat_mid, alt_mid, v_mid)
     zeta2 = (w_ie2 + w_en2) * dt
-    C1 = orthonormalize(rotvec_to_C(-zeta2) @ C @ rotvec_to_C(phi_b))
+    C1 = orthonormalize(mm3(mm3(rotvec_to_C(-zeta2), C), rotvec_to_C(phi_b)))
     out[0], out[1], out[2] = lat1, lon1, alt1
     out[3:6] = v1
     out[6:15] = C1.ravel()
@@ -91,7 +92,7 @@ def error_core(x, f_b, F):
     tl, sl, cl = math.tan(lat), math.sin(lat), math.cos(lat)
     w_ie = np.array([0.0, W_IE * cl, W_IE * sl])
     w_en = np.array([-vn / rmh, ve / rnh, ve * tl / rnh])
-    f_n = C @ f_b
+    f_n = mv3(C, f_b)
     d_wie_dr = np.zeros((3, 3))
     d_wie_dr[1, 1] = -W_IE * sl / rmh
     d_wie_dr[2, 1] = W_IE * cl / rmh
@@ -109,8 +110,8 @@ def error_core(x, f_b, F):
     F[0:3, 3:6] = d_wen_dv
     F[0:3, 6:9] = d_wie_dr + d_wen_dr
     F[3:6, 0:3] = skew(f_n)
-    F[3:6, 3:6] = -skew(2.0 * w_ie + w_en) + sv @ d_wen_dv
-    F[3:6, 6:9] = sv @ (2.0 * d_wie_dr + d_wen_dr)
+    F[3:6, 3:6] = -skew(2.0 * w_ie + w_en) + mm3(sv, d_wen_dv)
+    F[3:6, 6:9] = mm3(sv, 2.0 * d_wie_dr + d_wen_dr)
     g = gravity_up(lat, h)
     F[5, 8] += 2.0 * g / math.sqrt(r_m * r_n)
     for i in range(3):
@@ -138,3 +139,22 @@ def predict(x, vals, P, dth, dv, dt, pdth, pdv, pdt, has_prev, gb, ab, sg, sa, A
     P1, Phi = propagate_covariance(F, G, qc, P, dt, exact)
     mechanize(x, th, v, th_p, v_p, dt, x_out)
     return P1, Phi
+
+
+@njit(cache=True)
+def inject(x, dx9):
+    """``EnuFrame.inject``: nominal minus the att/vel/pos error estimate,
+    C_true = R(phi) C_est, position error in local ENU metres."""
+    out = x.copy()
+    C = mm3(rotvec_to_C(dx9[0:3]), x[6:15].copy().reshape(3, 3))
+    out[6:15] = C.ravel()
+    out[3:6] = x[3:6] - dx9[3:6]
+    lat, alt = x[0], x[2]
+    r_m, r_n = radii(lat)
+    lat1 = lat - dx9[7] / (r_m + alt)
+    out[0] = lat1
+    lon1 = x[1] - dx9[6] / ((r_n + alt) * math.cos(lat1))
+    lon1 = (lon1 + PI) % (2.0 * PI) - PI            # earth.wrap_lon_rad
+    out[1] = -PI if lon1 >= PI else lon1
+    out[2] = alt - dx9[8]
+    return out

@@ -121,3 +121,13 @@ def predict(x, t_rel_s, vals, P, dth, dv, dt, pdth, pdv, pdt, has_prev, gb, ab, 
     x_out[0:3] = r + vel * dt + C @ dr_sf + g_mid * (0.5 * dt * dt)
     x_out[6:15] = orthonormalize(C @ rotvec_to_C(phi)).ravel()
     return P1, Phi
+
+
+@njit(cache=True)
+def inject(x, dx9):
+    """``LciFrame.inject``: C_true = R(phi) C_est, v and r minus their errors."""
+    out = np.empty(x.shape[0])
+    out[6:15] = (rotvec_to_C(dx9[0:3]) @ x[6:15].copy().reshape(3, 3)).ravel()
+    out[3:6] = x[3:6] - dx9[3:6]
+    out[0:3] = x[0:3] - dx9[6:9]
+    return out

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .linalg import expm_taylor, skew
+from .linalg import expm_taylor, mm3, mm3n, skew
 
 
 @njit(cache=True)
@@ -28,23 +28,42 @@ def corrected(dth, dv, dt, vals, gb, ab, sg, sa):
 
 
 @njit(cache=True)
+def _basis(k, w, f, wdot):
+    """The k-th body-coupling basis of ``system_model``: I, diag(w), diag(f),
+    [w x], [wdot x], [w x]^2."""
+    if k == 0:
+        return np.eye(3)
+    if k == 1:
+        return np.diag(w)
+    if k == 2:
+        return np.diag(f)
+    if k == 3:
+        return skew(w)
+    if k == 4:
+        return skew(wdot)
+    W = skew(w)
+    return mm3(W, W)
+
+
+@njit(cache=True)
 def couple(F, G, C, w, f, wdot, Katt, Kvel, used_att, used_vel, GattM, GvelM):
     """Add the blocks' body couplings C K(w, f, wdot) to the attitude and
-    velocity rows of F and the body noises C M to the rows of G."""
-    W = skew(w)
-    bases = (np.eye(3), np.diag(w), np.diag(f), W, skew(wdot), W @ W)
+    velocity rows of F and the body noises C M to the rows of G (only the
+    bases some block uses are formed)."""
     n = F.shape[0]
-    for rows, K, used in ((0, Katt, used_att), (3, Kvel, used_vel)):
+    for rows in (0, 3):
+        K = Katt if rows == 0 else Kvel
+        used = used_att if rows == 0 else used_vel
         B = np.zeros((3, n))
         any_term = False
         for k in range(6):
             if used[k]:
-                B += bases[k] @ K[k]
+                B += mm3n(_basis(k, w, f, wdot), K[k])
                 any_term = True
         if any_term:
-            F[rows:rows + 3, :] += C @ B
-    G[0:3, :] += C @ GattM
-    G[3:6, :] += C @ GvelM
+            F[rows:rows + 3, :] += mm3n(C, B)
+    G[0:3, :] += mm3n(C, GattM)
+    G[3:6, :] += mm3n(C, GvelM)
 
 
 @njit(cache=True)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .linalg import inv_small
+
 
 @njit(cache=True)
 def joseph_update(P, H, R, r, threshold):
@@ -13,9 +15,8 @@ def joseph_update(P, H, R, r, threshold):
     S = H @ P @ H.T + R
     S = 0.5 * (S + S.T)
     PHt = P @ H.T
-    try:
-        Si = np.linalg.inv(S)
-    except Exception:  # noqa: BLE001  (numba raises a generic error for a singular matrix)
+    ok, Si = inv_small(S)
+    if not ok:
         return 2, np.inf, np.zeros(P.shape[0]), P
     nis = r @ (Si @ r)
     if not np.isfinite(nis) or nis > threshold:

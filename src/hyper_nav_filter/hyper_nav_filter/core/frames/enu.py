@@ -30,9 +30,6 @@ NOMINAL_SIZE = 18
 _I3 = np.eye(3)
 
 
-def _f64(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.float64)
-
 
 class EnuFrame:
     name = "ENU"
@@ -81,16 +78,12 @@ class EnuFrame:
 
     # ---- compiled predict (core.fast) -----------------------------------------------------
     def fast_predict(self, x, t_s, vals, P, imu, prev, sm):
-        """One predict step in compiled form (core.fast.enu): (new nominal vector, P', Phi)."""
+        """One predict step in compiled form (core.fast.enu): (new nominal vector, P', Phi).
+        The increments are passed as they are (float64 arrays; the engine makes them so)."""
         out = np.empty(NOMINAL_SIZE)
-        r = sm.roles
         p = imu if prev is None else prev            # fixed argument types: one compiled signature
-        P1, Phi = fast_enu.predict(x, vals, P, _f64(imu.dtheta_b_rad), _f64(imu.dvel_b_mps), float(imu.dt_s),
-                                   _f64(p.dtheta_b_rad), _f64(p.dvel_b_mps), float(p.dt_s), prev is not None,
-                                   r["gyro_bias"], r["accel_bias"], r["gyro_scale"], r["accel_scale"], sm.A,
-                                   sm.K["att"], sm.K["vel"],
-                                   sm.K_used["att"], sm.K_used["vel"], sm.G_const, sm.G_body["att"],
-                                   sm.G_body["vel"], sm.qc, sm.exact, out)
+        P1, Phi = fast_enu.predict(x, vals, P, imu.dtheta_b_rad, imu.dvel_b_mps, float(imu.dt_s), p.dtheta_b_rad,
+                                   p.dvel_b_mps, float(p.dt_s), prev is not None, *sm.fast_args, out)
         return out, P1, Phi
 
     # ---- error model ------------------------------------------------------------------
@@ -140,6 +133,10 @@ class EnuFrame:
         dp = earth.position_error_enu_m(x_est[X_LAT], x_est[X_LON], x_est[X_ALT], x_true[X_LAT], x_true[X_LON],
                                         x_true[X_ALT])
         return np.concatenate([phi, x_est[X_VEL] - x_true[X_VEL], dp])
+
+    def fast_inject(self, x, dx9) -> np.ndarray:
+        """``inject`` in compiled form (core.fast.enu)."""
+        return fast_enu.inject(x, dx9)
 
     def inject(self, x, dx9) -> np.ndarray:
         """Nominal minus the att/vel/pos error estimate (estimate - truth):

@@ -41,9 +41,6 @@ NOMINAL_SIZE = 15
 _I3 = np.eye(3)
 
 
-def _f64(a) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.float64)
-
 
 class LciFrame:
     name = "LCI"
@@ -123,17 +120,14 @@ class LciFrame:
 
     # ---- compiled predict (core.fast) -----------------------------------------------------
     def fast_predict(self, x, t_s, vals, P, imu, prev, sm):
-        """One predict step in compiled form (core.fast.lci): (new nominal vector, P', Phi)."""
+        """One predict step in compiled form (core.fast.lci): (new nominal vector, P', Phi).
+        The increments are passed as they are (float64 arrays; the engine makes them so)."""
         out = np.empty(NOMINAL_SIZE)
-        r, L = sm.roles, self.launch
+        L = self.launch
         p = imu if prev is None else prev            # fixed argument types: one compiled signature
-        P1, Phi = fast_lci.predict(x, float(t_s - L.t0_s), vals, P, _f64(imu.dtheta_b_rad), _f64(imu.dvel_b_mps),
-                                   float(imu.dt_s), _f64(p.dtheta_b_rad), _f64(p.dvel_b_mps), float(p.dt_s),
-                                   prev is not None, r["gyro_bias"],
-                                   r["accel_bias"], r["gyro_scale"], r["accel_scale"], sm.A, sm.K["att"],
-                                   sm.K["vel"], sm.K_used["att"], sm.K_used["vel"], sm.G_const, sm.G_body["att"],
-                                   sm.G_body["vel"], sm.qc, sm.exact, L.R0_a_m, L.spin_axis_a, L.C_t_a,
-                                   self._normal_gravity, out)
+        P1, Phi = fast_lci.predict(x, float(t_s - L.t0_s), vals, P, imu.dtheta_b_rad, imu.dvel_b_mps, float(imu.dt_s),
+                                   p.dtheta_b_rad, p.dvel_b_mps, float(p.dt_s), prev is not None, *sm.fast_args,
+                                   L.R0_a_m, L.spin_axis_a, L.C_t_a, self._normal_gravity, out)
         return out, P1, Phi
 
     # ---- error model ------------------------------------------------------------------
@@ -149,6 +143,10 @@ class LciFrame:
         """The att/vel/pos error (estimate - truth) in LCI axes (inverse of ``inject``)."""
         phi = attitude_error_n_rad(x_est[X_C].reshape(3, 3), x_true[X_C].reshape(3, 3))
         return np.concatenate([phi, x_est[X_V] - x_true[X_V], x_est[X_R] - x_true[X_R]])
+
+    def fast_inject(self, x, dx9) -> np.ndarray:
+        """``inject`` in compiled form (core.fast.lci)."""
+        return fast_lci.inject(x, dx9)
 
     def inject(self, x, dx9) -> np.ndarray:
         out = np.empty(NOMINAL_SIZE)
