@@ -9,6 +9,7 @@ the ENU position covariance.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,18 +56,26 @@ def navstate_fields(sol: Solution, layout: StateLayout, frames: OutputFrames, me
     return d
 
 
+@functools.lru_cache(maxsize=8)
+def _origin(lat_rad: float, lon_rad: float, alt_m: float):
+    """ECEF position and C_n_e of a map origin (computed once per origin)."""
+    return earth.geodetic_to_ecef(lat_rad, lon_rad, alt_m), earth.C_n_e(lat_rad, lon_rad)
+
+
 def map_pose(sol: Solution, frames: OutputFrames):
-    """Position [m] and attitude C_b_map in the map frame (ENU tangent plane at origin)."""
+    """Position [m] and attitude C_b_map in the map frame (ENU tangent plane at origin):
+    ``earth.enu_offset_m`` from the origin, C_n_map = C_n_e(origin)^T C_n_e(here)."""
     s = sol.state
-    pos = earth.enu_offset_m(frames.origin_lat_rad, frames.origin_lon_rad, frames.origin_alt_m,
-                             s.lat_rad, s.lon_rad, s.alt_m)
-    C_n_map = earth.C_n_e(frames.origin_lat_rad, frames.origin_lon_rad).T @ earth.C_n_e(s.lat_rad, s.lon_rad)
+    r0_e, C0_n_e = _origin(frames.origin_lat_rad, frames.origin_lon_rad, frames.origin_alt_m)
+    pos = (earth.geodetic_to_ecef(s.lat_rad, s.lon_rad, s.alt_m) - r0_e) @ C0_n_e
+    C_n_map = C0_n_e.T @ earth.C_n_e(s.lat_rad, s.lon_rad)
     return pos, C_n_map, C_n_map @ s.C_b_n
 
 
-def odometry_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -> dict:
+def odometry_fields(sol: Solution, layout: StateLayout, frames: OutputFrames, pose=None) -> dict:
+    """nav_msgs/Odometry fields; ``pose``: ``map_pose`` of the solution when already computed."""
     s = sol.state
-    pos, C_n_map, C_b_map = map_pose(sol, frames)
+    pos, C_n_map, C_b_map = map_pose(sol, frames) if pose is None else pose
     q = C_to_quat_xyzw(C_b_map)
     P = sol.P
     cov = np.zeros((6, 6))
@@ -117,10 +126,11 @@ def navsatfix_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -
     return d
 
 
-def transform_fields(sol: Solution, frames: OutputFrames) -> dict:
+def transform_fields(sol: Solution, frames: OutputFrames, pose=None) -> dict:
     """geometry_msgs/TransformStamped of ``map -> base_link`` (REP-105) at the
-    solution epoch: the same pose as ``nav/odom``."""
-    pos, _, C_b_map = map_pose(sol, frames)
+    solution epoch: the same pose as ``nav/odom`` (``pose``: its ``map_pose``
+    when already computed)."""
+    pos, _, C_b_map = map_pose(sol, frames) if pose is None else pose
     q = C_to_quat_xyzw(C_b_map)
     d = _header(sol.t_s, frames.map)
     d.update({"child_frame_id": frames.body,

@@ -90,9 +90,9 @@ def geodetic_to_ecef(lat_rad, lon_rad, alt_m):
     """Geodetic (WGS-84) to ECEF position [m]; vectorised over inputs."""
     _, r_n = radii(lat_rad)
     cl, sl = np.cos(lat_rad), np.sin(lat_rad)
-    return np.stack([(r_n + alt_m) * cl * np.cos(lon_rad),
-                     (r_n + alt_m) * cl * np.sin(lon_rad),
-                     (r_n * (1.0 - E2) + alt_m) * sl], axis=-1)
+    return _vec3((r_n + alt_m) * cl * np.cos(lon_rad),
+                 (r_n + alt_m) * cl * np.sin(lon_rad),
+                 (r_n * (1.0 - E2) + alt_m) * sl)
 
 
 def ecef_to_geodetic(r_e_m):

@@ -34,6 +34,8 @@ from .frames import make_frame
 from .nav_state import ImuSample, NavState
 from .system_model import discretize, system_model
 
+_F64 = np.dtype(np.float64)
+
 
 @dataclass
 class UpdateResult:
@@ -226,12 +228,10 @@ class ErrorStateKF:
         """``predict`` through the frame's compiled kernel (same equations as
         ``linearize`` + the mechanization); IMU pre-processing blocks and
         nominal block propagation around it as in the reference. The kernels
-        take float64 arrays; anything else is converted once here."""
+        take float64 arrays (any layout); anything else is converted here."""
         a, b = imu.dtheta_b_rad, imu.dvel_b_mps
-        if type(a) is not np.ndarray or type(b) is not np.ndarray or a.dtype != np.float64 or b.dtype != np.float64 \
-                or not (a.flags.c_contiguous and b.flags.c_contiguous):
-            imu = ImuSample(imu.t_s, imu.dt_s, np.ascontiguousarray(a, dtype=np.float64),
-                            np.ascontiguousarray(b, dtype=np.float64))
+        if type(a) is not np.ndarray or type(b) is not np.ndarray or a.dtype is not _F64 or b.dtype is not _F64:
+            imu = ImuSample(imu.t_s, imu.dt_s, np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
         vals = new_vals = self.values
         if self._preprocessors:
             dt = imu.dt_s

@@ -49,6 +49,7 @@ MODE_NAMES = {MODE_INITIALIZING: "initializing", MODE_INS_ONLY: "INS only", MODE
 _COUPLING_MODE = {"tight": MODE_TIGHTLY_COUPLED, "loose": MODE_LOOSELY_COUPLED, "aiding": MODE_AIDED}
 MODE_WINDOW_S = 1.0            # a source counts toward the mode for this long after an accepted update
 _EPS_S = 1e-9
+_TRIM_CHUNK = 64               # epochs out of the window are dropped from memory this many at a time
 
 
 def _vec(x) -> np.ndarray:
@@ -136,6 +137,8 @@ class FusionEngine:
         self._base_accept: dict = {}
         self._epochs: list[_Epoch] = []
         self._times: list[float] = []
+        self._n_out_of_window = 0                 # leading epochs already out of the window (see _trim)
+        self._mode_cache = None
         self._events: list[tuple] = []           # sorted (t, priority, kind, seq, event): arrival order
                                                   # within an epoch does not matter
         self._seq = 0
@@ -180,7 +183,7 @@ class FusionEngine:
         return True, "ok"
 
     def _check_imu_time(self, t_s, a, b) -> tuple[bool, str]:
-        if not math.isfinite(t_s + a[0] + a[1] + a[2] + b[0] + b[1] + b[2]):     # NaN/inf propagate through the sum
+        if not math.isfinite(t_s + sum(a.tolist()) + sum(b.tolist())):     # NaN/inf propagate through the sum
             return self._reject("imu_nan")
         dt = t_s - self.t_latest_s
         if dt == 0.0 and self._times:
@@ -202,7 +205,7 @@ class FusionEngine:
         self._append_epoch(ImuSample(t_s, dt, dth, dv))
         self._last_dt = dt
         self.counters["imu_accepted"] += 1
-        if self._times[0] < t_s - self.cfg.reprocess_window_s:
+        if self._times[self._n_out_of_window] < t_s - self.cfg.reprocess_window_s:
             self._trim()
 
     def add_measurement(self, meas) -> tuple[bool, str]:
@@ -226,7 +229,7 @@ class FusionEngine:
         kind, t = event.kind, event.t_s
         if not math.isfinite(t):
             return self._reject(f"{kind}_nan")
-        if t <= self._base.t_s:
+        if t <= self._window_start_s():
             return self._reject(f"{kind}_stale")
         if t <= self._last_released_t + _EPS_S:
             # still applied, but solutions already released did not see it:
@@ -366,7 +369,8 @@ class FusionEngine:
     def release(self, final: bool = False) -> list[Solution]:
         """Solutions now older than output_delay_s (all of them when final), on
         the output grid t0 + n / output_rate_hz."""
-        self._catch_up()
+        if self._dirty_from != math.inf:
+            self._catch_up()
         out = []
         horizon = self.t_latest_s - (0.0 if final else self.cfg.output_delay_s)
         rate = self.cfg.output_rate_hz
@@ -401,13 +405,25 @@ class FusionEngine:
         self.counters[f"rejected_{reason}"] += 1
         return False, reason
 
+    def _window_start_s(self) -> float:
+        """Epoch of the state the window starts from: events at or before it are stale."""
+        n = self._n_out_of_window
+        return self._times[n - 1] if n else self._base.t_s
+
     def _trim(self) -> None:
+        """Move the window start: epochs older than reprocess_window_s (and
+        already released; the latest always stays) leave the window. They are
+        dropped from memory _TRIM_CHUNK at a time, which changes nothing
+        else: an event at or before the window start is rejected as stale
+        either way (``_window_start_s``), so re-processing never reaches them."""
         t_min = self.t_latest_s - self.cfg.reprocess_window_s
-        n_drop = 0
+        n_drop = self._n_out_of_window
         limit = min(len(self._epochs) - 1, self._released)
         while n_drop < limit and self._times[n_drop] < t_min:
             n_drop += 1
-        if n_drop:
+        self._n_out_of_window = n_drop
+        if n_drop >= _TRIM_CHUNK:
+            self._n_out_of_window = 0
             if self.keep_history:
                 self.history.extend(self._epochs[:n_drop])
             self._base = self._epochs[n_drop - 1].snap
@@ -423,16 +439,27 @@ class FusionEngine:
 
     def _mode(self, ep: _Epoch) -> tuple[int, tuple]:
         """What the solution runs on: the strongest coupling among the sources
-        accepted within MODE_WINDOW_S (tight > loose > other aiding)."""
+        accepted within MODE_WINDOW_S (tight > loose > other aiding). The
+        answer for one acceptance record holds between the last expiry before
+        t and the next one after it (cached: consecutive epochs share it)."""
         if ep.snap.n_updates == 0:
             return MODE_INITIALIZING, ()
         t = ep.imu.t_s
+        c = self._mode_cache
+        if c is not None and c[0] is ep.last_accept and c[1] < t <= c[2]:
+            return c[3]
         recent = [(kind, coupling) for (kind, coupling), t_a in ep.last_accept.items() if t - t_a <= MODE_WINDOW_S]
+        expired = [t_a + MODE_WINDOW_S for t_a in ep.last_accept.values() if t - t_a > MODE_WINDOW_S]
         if not recent:
-            return MODE_INS_ONLY, ()
-        modes = {_COUPLING_MODE.get(c, MODE_AIDED) for _, c in recent}
-        mode = next(m for m in (MODE_TIGHTLY_COUPLED, MODE_LOOSELY_COUPLED, MODE_AIDED) if m in modes)
-        return mode, tuple(sorted({k for k, _ in recent}))
+            result = MODE_INS_ONLY, ()
+        else:
+            modes = {_COUPLING_MODE.get(c, MODE_AIDED) for _, c in recent}
+            mode = next(m for m in (MODE_TIGHTLY_COUPLED, MODE_LOOSELY_COUPLED, MODE_AIDED) if m in modes)
+            result = mode, tuple(sorted({k for k, _ in recent}))
+        until = min((t_a + MODE_WINDOW_S for t_a in ep.last_accept.values() if t - t_a <= MODE_WINDOW_S),
+                    default=math.inf)
+        self._mode_cache = (ep.last_accept, max(expired, default=-math.inf), until, result)
+        return result
 
     def _solution(self, ep: _Epoch) -> Solution:
         mode, kinds = self._mode(ep)

@@ -33,8 +33,8 @@ from ..core.fast.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
-from ..output import (OutputFrames, navsatfix_fields, navstate_fields, odometry_fields, static_transform_fields,
-                      transform_fields)
+from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
+                      static_transform_fields, transform_fields)
 from ..ros_util import (all_matched, assign_fields, declare_params, diagnostic_array, latched_qos, publisher_qos,
                        run_node, subscriber_qos)
 from ..sources import REGISTRY, table_from_params
@@ -171,8 +171,9 @@ class FusionNode(Node):
             m = NavStateMsg()
             assign_fields(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
             self.pub_state.publish(m)
+            pose = map_pose(sol, self.frames)
             o = Odometry()
-            assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames))
+            assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames, pose))
             self.pub_odom.publish(o)
             f = NavSatFix()
             assign_fields(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
@@ -181,7 +182,7 @@ class FusionNode(Node):
                 self.counts[f"published {t}"] += 1
             if self.pub_tf is not None:
                 tf = TransformStamped()
-                assign_fields(tf, transform_fields(sol, self.frames))
+                assign_fields(tf, transform_fields(sol, self.frames, pose))
                 self.pub_tf.publish(TFMessage(transforms=[tf]))
                 self.counts["published tf"] += 1
 

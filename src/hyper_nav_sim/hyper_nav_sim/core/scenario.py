@@ -78,6 +78,10 @@ SCHEMA = {
     "magnetometer.lever_arm_b_m": (vec(3), False, [0.0, 0.0, 0.0]),      # its frame on /tf_static only
     "graph.real_time_factor": (NUM, False, 3.0),
     "graph.clock_rate_hz": (NUM, False, 50.0),
+    # at most this many /clock messages per wall second: at high real-time factors the
+    # sim-time step grows to real_time_factor / clock_max_wall_hz (every node takes
+    # each /clock in Python; 1000 per second into 7 nodes is a core of 2)
+    "graph.clock_max_wall_hz": (NUM, False, 100.0),
     "graph.truth_rate_hz": (NUM, False, 50.0),
     "graph.qos_depth": (INT, False, 2000),
     # wall-clock period of every node's /diagnostics status (its heartbeat)
@@ -105,7 +109,8 @@ KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` bl
 OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world", "virtual_gnss",
                    "geomag", "lever_arm_learning")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
-            "graph.real_time_factor", "graph.clock_rate_hz", "graph.truth_rate_hz", "graph.qos_depth",
+            "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
+            "graph.qos_depth",
             "graph.diagnostics_period_s", "monitor.heartbeat_timeout_s", "monitor.startup_timeout_s",
             "monitor.stream_timeout_s", "report.max_pos_rms_m", "report.max_vel_rms_mps", "report.max_att_rms_deg"}
 NON_NEGATIVE = {"gnss.latency_s", "report.skip_s", "magnetometer.noise_nT", "imu.gyro_arw_deg_per_sqrt_hr",

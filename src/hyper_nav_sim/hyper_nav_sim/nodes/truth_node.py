@@ -1,7 +1,10 @@
 """Truth node: sim-time source (``/clock``) and ``truth/state``.
 
 Advances sim time in steps of 1 / graph.clock_rate_hz, paced at
-graph.real_time_factor x wall time, once each node named in ``clock_nodes``
+graph.real_time_factor x wall time (steps of real_time_factor /
+graph.clock_max_wall_hz when those are longer: at most clock_max_wall_hz
+/clock messages per wall second; the sensor nodes release every sample due at
+each step, stamped with its own epoch), once each node named in ``clock_nodes``
 has a ``/clock`` subscription (by node name: a count would be fooled by a node
 with two, e.g. a recorder on sim time) and ``/clock`` has ``clock_subscribers``
 matched subscriptions and ``truth/state`` has ``min_subscribers``. Publishes
@@ -58,11 +61,13 @@ class TruthNode(Node):
         self.pub_truth = self.create_publisher(NavState, "truth/state", qos)
         self.status = NodeStatus(self, "hyper_nav_sim: truth")
         self.create_timer(p["diagnostics_period_s"], self._diag)
-        self.step_s = 1.0 / sc["graph.clock_rate_hz"]
+        base_step_s = 1.0 / sc["graph.clock_rate_hz"]
+        self.step_s = max(base_step_s, self.rtf / sc["graph.clock_max_wall_hz"])
         self.n_steps = int(np.ceil((sc["duration_s"] + self.tail_s) / self.step_s - 1e-9))
+        # truth epochs on the graph.clock_rate_hz grid whatever the /clock step
         truth_every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
-        steps = np.arange(0, self.n_steps + 1)
-        t_truth = steps[(steps % truth_every == 0) & (steps * self.step_s <= sc["duration_s"] + 1e-9)] * self.step_s
+        steps = np.arange(0, int(np.floor(sc["duration_s"] / base_step_s + 1e-9)) + 1)
+        t_truth = steps[steps % truth_every == 0] * base_step_s
         self.truth = sc.trajectory().truth(t_truth)
         self._truth_idx = 0
         self.imu_errors = ImuErrors.from_scenario(sc)
