@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 from hyper_nav_msgs.msg import NavState
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from hyper_nav_filter.core import earth
@@ -51,17 +52,22 @@ def test_baro_and_a_test_node_fixes_reach_the_filter_by_configuration(tmp_path, 
     bag = tmp_path / frame
     rng = np.random.default_rng(9)
     sent, n_fixes = 0, 0
-    with Graph("seed003", record=bag, overrides=overrides, extra_subscribers={"truth/state": 1},
+    # the clock waits for this test's /clock subscription, made once its fix publisher is matched:
+    # no fix is published before its readers match or later than the filter's window allows
+    with Graph("seed003", record=bag, overrides=overrides, extra_subscribers={"truth/state": 1, "/clock": 1},
                log_dir=tmp_path / f"{frame}_logs") as g:
         with TopicCollector({"truth/state": NavState}, domain_id=g.domain_id, name="fix_source") as c:
             pub = c.publisher(NavSatFix, "test/fix")
             truth = g.procs["truth"]
-            matched_at = None
+            matched_at, ready = None, False
             while truth.poll() is None:
                 g.check_alive()
                 if matched_at is None and pub.get_subscription_count() >= 2:         # recorder and fusion
                     matched_at = time.monotonic()        # discovery is asymmetric: let the reader match too
-                if matched_at is not None and time.monotonic() > matched_at + 1.0:
+                if not ready and matched_at is not None and time.monotonic() > matched_at + 1.0:
+                    c.node.create_subscription(Clock, "/clock", lambda _msg: None, 10)
+                    ready = True
+                if ready:
                     with c._lock:
                         msgs = list(c.messages["truth/state"])
                     for m in msgs[sent:]:

@@ -83,16 +83,19 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
                              "nav/model_update": ModelUpdate}, domain_id=g.domain_id, name="late_fix_source") as c:
             arrivals = ArrivalLog(c)
             pub = c.publisher(NavSatFix, "test/late_fix")
-            sent = 0
+            sent, timers = 0, []
             truth = g.procs["truth"]
             while truth.poll() is None:
                 g.check_alive()
                 with c._lock:
                     fixes = list(c.messages["gnss/fix"])
                 for m in fixes[sent:]:
-                    threading.Timer(LATE_S, pub.publish, (m,)).start()
+                    timers.append(threading.Timer(LATE_S, pub.publish, (m,)))
+                    timers[-1].start()
                 sent = len(fixes)
                 time.sleep(0.02)
+            for t in timers:            # every late copy is out (a loaded machine delays timer threads)
+                t.join()
             time.sleep(2 * LATE_S)
             g.wait_until_done()
             updates = list(c.messages["nav/model_update"])
