@@ -4,7 +4,7 @@
    measurements, release of the solutions) for each paper configuration, on
    the compiled fast path and on the plain numpy reference of the same filter
    (``ErrorStateKF(fast=False)``), measured in the same process (the least of
-   three runs each); their ratio;
+   five runs each); their ratio;
    the real-time factor at 50, 100, 200 and 500 Hz IMU (measured at each
    rate, GNSS at the scenario's rate).
 2. Offline replay of a recorded default bag (300 s) through the core: real-time factor.
@@ -46,7 +46,7 @@ CONFIGS = [  # label, scenario, extra filter fields, scenario overrides, measure
     ("ENU 24 elastic lever arm (seed 000)", "seed000_elastic", {}, {}, None),
 ]
 RATES_HZ = (50.0, 100.0, 200.0, 500.0)
-REPEATS = 3
+REPEATS = 5
 
 
 def _scenario(name, rate_hz, duration_s, overrides=None):
