@@ -130,3 +130,40 @@ def test_rts_smoother_beats_the_filter_on_the_default_scenario(frame):
     lay = sc.filter_config().layout
     mid = len(hist) // 2
     assert np.trace(smooth[mid].P[lay.sl("pos"), lay.sl("pos")]) < np.trace(filt[mid].P[lay.sl("pos"), lay.sl("pos")])
+
+
+def test_window_start_is_exact_while_old_epochs_leave_memory_in_chunks():
+    """Epochs older than reprocess_window_s leave the window one by one (an
+    event at or before the window start is stale, one just after it is
+    re-processed exactly) although they are dropped from memory 64 at a time."""
+    from hyper_nav_filter.core.fusion import _TRIM_CHUNK
+    sc = load_scenario("default")
+    cfg = sc.filter_config()                        # 50 Hz IMU, window 3 s, output delay 1 s
+    traj = sc.trajectory()
+    imu = simulate.imu_stream(sc, traj)
+    fixes = {round(m.t_s, 6): m for m in gnss_measurements(sc, traj) if m.kind == "gnss_pos"}
+    eng = FusionEngine(cfg, sc.filter_initial_state())
+    on_time = FusionEngine(cfg, sc.filter_initial_state())
+    lens = []
+    for k in range(600):                            # 12 s
+        for e in (eng, on_time):
+            e.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+            e.release()
+        lens.append(len(eng._epochs))
+        if k == 449:                                # at t = 9.0 s: the on-time engine gets the fix of 9.0 s
+            on_time.add_measurement(fixes[9.0])
+    assert imu.t_s[599] == pytest.approx(12.0)
+    # the window starts at the last epoch before 12 - 3 s: 10 s late is stale, so is 8.98 s
+    assert eng.add_measurement(fixes[2.0]) == (False, "gnss_pos_stale")
+    assert eng._window_start_s() == pytest.approx(8.98)
+    assert eng.add_measurement(dataclasses.replace(fixes[9.0], t_s=8.98)) == (False, "gnss_pos_stale")
+    assert eng.add_measurement(fixes[9.0])[0]                           # 3 s late: in the window
+    a, b = eng.release(final=True), on_time.release(final=True)         # (11, 12] s: after the fix in both
+    assert len(a) == len(b) == 50
+    for sa, sb in zip(a, b):
+        assert sa.t_s == sb.t_s
+        np.testing.assert_allclose([sa.state.lat_rad, sa.state.lon_rad], [sb.state.lat_rad, sb.state.lon_rad],
+                                   rtol=0, atol=1e-15)
+        np.testing.assert_allclose(sa.P, sb.P, rtol=1e-12, atol=0)
+    # memory: the window (150 epochs) plus at most a chunk, not the whole flight
+    assert max(lens) <= 3.0 * 50 + _TRIM_CHUNK + 2 and min(lens[300:]) >= 150
