@@ -341,11 +341,10 @@ class FusionEngine:
         if events and events[-1][0] > t_prev + _EPS_S:
             lo = bisect.bisect_right(events, (t_prev + _EPS_S,))
             hi = bisect.bisect_right(events, (imu.t_s + _EPS_S,))
-            self._apply(ep, events[lo:hi])
-        else:                                     # no event in (t_prev, t]: _apply(ep, []) in short
-            ep.snap = kf.snapshot()
-            if self.keep_history:
-                ep.Phi, ep.P_prior, ep.dx = kf.last_Phi, kf.P_prior, kf.epoch_dx
+            events = events[lo:hi]
+        else:
+            events = ()                           # none in (t_prev, t]: no search
+        self._apply(ep, events)
         self._at = k
 
     def _apply(self, ep: "_Epoch", events) -> None:
@@ -439,26 +438,26 @@ class FusionEngine:
 
     def _mode(self, ep: _Epoch) -> tuple[int, tuple]:
         """What the solution runs on: the strongest coupling among the sources
-        accepted within MODE_WINDOW_S (tight > loose > other aiding). The
-        answer for one acceptance record holds between the last expiry before
-        t and the next one after it (cached: consecutive epochs share it)."""
+        accepted within MODE_WINDOW_S (t <= t_accept + MODE_WINDOW_S; tight >
+        loose > other aiding). The answer for one acceptance record holds from
+        the last expiry before t to the next one (cached: consecutive epochs
+        share it)."""
         if ep.snap.n_updates == 0:
             return MODE_INITIALIZING, ()
         t = ep.imu.t_s
         c = self._mode_cache
         if c is not None and c[0] is ep.last_accept and c[1] < t <= c[2]:
             return c[3]
-        recent = [(kind, coupling) for (kind, coupling), t_a in ep.last_accept.items() if t - t_a <= MODE_WINDOW_S]
-        expired = [t_a + MODE_WINDOW_S for t_a in ep.last_accept.values() if t - t_a > MODE_WINDOW_S]
+        expiry = {key: t_a + MODE_WINDOW_S for key, t_a in ep.last_accept.items()}
+        recent = [key for key, t_end in expiry.items() if t <= t_end]
         if not recent:
             result = MODE_INS_ONLY, ()
         else:
-            modes = {_COUPLING_MODE.get(c, MODE_AIDED) for _, c in recent}
+            modes = {_COUPLING_MODE.get(coupling, MODE_AIDED) for _, coupling in recent}
             mode = next(m for m in (MODE_TIGHTLY_COUPLED, MODE_LOOSELY_COUPLED, MODE_AIDED) if m in modes)
-            result = mode, tuple(sorted({k for k, _ in recent}))
-        until = min((t_a + MODE_WINDOW_S for t_a in ep.last_accept.values() if t - t_a <= MODE_WINDOW_S),
-                    default=math.inf)
-        self._mode_cache = (ep.last_accept, max(expired, default=-math.inf), until, result)
+            result = mode, tuple(sorted({kind for kind, _ in recent}))
+        self._mode_cache = (ep.last_accept, max((e for e in expiry.values() if t > e), default=-math.inf),
+                            min((e for e in expiry.values() if t <= e), default=math.inf), result)
         return result
 
     def _solution(self, ep: _Epoch) -> Solution:

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core.fusion import MODE_LOOSELY_COUPLED, FusionEngine
+from hyper_nav_filter.core.fusion import MODE_INS_ONLY, MODE_LOOSELY_COUPLED, FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
@@ -167,3 +167,30 @@ def test_window_start_is_exact_while_old_epochs_leave_memory_in_chunks():
         np.testing.assert_allclose(sa.P, sb.P, rtol=1e-12, atol=0)
     # memory: the window (150 epochs) plus at most a chunk, not the whole flight
     assert max(lens) <= 3.0 * 50 + _TRIM_CHUNK + 2 and min(lens[300:]) >= 150
+
+
+def test_cached_mode_equals_the_mode_computed_afresh():
+    """The mode cache (one acceptance record holds between expiries) gives what
+    a fresh evaluation gives, across a GNSS outage, its recovery and a source
+    that stops (velocity after 9 s)."""
+    sc = load_scenario("default")
+    traj = sc.trajectory()
+    imu = simulate.imu_stream(sc, traj)
+    meas = [m for m in gnss_measurements(sc, traj)
+            if not 4.0 < m.t_s < 7.5 and not (m.kind == "gnss_vel" and m.t_s > 9.0)]
+    eng = FusionEngine(sc.filter_config(), sc.filter_initial_state(), keep_history=True)
+    sols, j = [], 0
+    for k in range(600):
+        eng.add_imu(imu.t_s[k], imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        while j < len(meas) and meas[j].t_s <= imu.t_s[k] + 1e-9:
+            eng.add_measurement(meas[j])
+            j += 1
+        sols += eng.release()
+    epochs = {ep.imu.t_s: ep for ep in eng.full_history()}
+    seen = set()
+    for s in sols:
+        eng._mode_cache = None
+        assert (s.mode, s.sources) == eng._mode(epochs[s.t_s]), s.t_s
+        seen.add((s.mode, s.sources))
+    assert {(MODE_LOOSELY_COUPLED, ("gnss_pos", "gnss_vel")), (MODE_INS_ONLY, ()),
+            (MODE_LOOSELY_COUPLED, ("gnss_pos",))} <= seen
