@@ -59,11 +59,13 @@ class ArrivalLog:
 def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
     overrides = {
         "duration_s": DURATION_S, "graph.real_time_factor": RTF,
-        # solutions released 2 s (1 s wall) behind the newest IMU epoch: the late copies, sent
-        # 0.25 s wall after the original reaches this process, keep 0.75 s of wall margin when
-        # the machine is loaded (at the default 1 s, 12 and 1 copies came after the release in
-        # two runs beside a reproduction)
-        "filter.config.output_delay_s": 2.0,
+        # solutions released 4 s (2 s wall) behind the newest IMU epoch, late events accepted up
+        # to 6 s (3 s wall): the late copies, sent 0.25 s wall after the original reaches this
+        # process, keep 1.75 s of wall margin before the release and 2.75 s before they are
+        # stale when the machine is loaded (at 1 s / 3 s, 12 and 1 copies came after the release
+        # in two runs beside a reproduction; at 2 s / 3 s, 3 of 300 were not processed in one CI
+        # run beside the unit lane)
+        "filter.config.output_delay_s": 4.0, "filter.config.reprocess_window_s": 6.0,
         "filter.sources.late_fix": {"type": "gnss_fix", "topic": "test/late_fix"},
         # fire as soon as a 2 s window is buffered (the residual statistic of 5 m fixes is ~2 m)
         "lever_arm_learning.trigger": {"threshold_m": 0.5, "release_m": 0.2, "cooldown_s": 1000.0,
@@ -118,6 +120,8 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
     # the fusion node took it through its declared source
     fusion = run["diagnostics"]["hyper_nav_filter: fusion"]
     assert int(fusion["processed nav/model_update"]) == 1
+    print("fusion, late copies:", {k: v for k, v in fusion.items() if "test/late_fix" in k or "late" in k},
+          "sent", sent)
     assert int(fusion["processed test/late_fix"]) == sent > 100
     assert not {k: v for k, v in fusion.items() if k.endswith("_after_release")}
 
