@@ -6,12 +6,11 @@ Only /diagnostics is recorded (the recorder is not what is measured)."""
 from __future__ import annotations
 
 import os
-import pathlib
-import tempfile
 import time
 
 from hyper_nav_sim.graph import Graph
 from hyper_nav_sim.report import load_run
+from scratch import scratch_dir
 
 # label: (scenario, factors tried in turn, overrides)
 CASES = {"default (50 Hz IMU)": ("default", (10.0, 20.0, 25.0, 30.0, 40.0), {}),
@@ -31,7 +30,7 @@ def _cpu_s(pid: int) -> float:
 
 
 def run_once(scenario: str, rtf: float, overrides: dict | None = None) -> dict:
-    tmp = pathlib.Path(tempfile.mkdtemp(prefix="live_"))
+    tmp = scratch_dir("live_")
     over = {"duration_s": WALL_S * rtf, "graph.real_time_factor": rtf, **(overrides or {})}
     with Graph(scenario, record=tmp / "bag", overrides=over, log_dir=tmp / "logs",
                node_params={"recorder": {"topics": ["/diagnostics"]}}) as g:

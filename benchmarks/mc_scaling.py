@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import pathlib
-import tempfile
 import time
 
 import yaml
 
 from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_sim.graph import apply_overrides
+from scratch import scratch_dir
 from hyper_nav_sim.mc_campaign import campaign
 
 
@@ -32,7 +31,7 @@ def main() -> None:
     sc = load_scenario(args.scenario)
     over = {k: yaml.safe_load(v) for k, _, v in (s.partition("=") for s in args.set)}
     if over:
-        sc = apply_overrides(sc, over, pathlib.Path(tempfile.mkdtemp()))
+        sc = apply_overrides(sc, over, scratch_dir("scenario_"))
     print(f"{sc.name}: {args.runs} runs of {sc['duration_s']} s; {os.cpu_count()} cores; load "
           f"{os.getloadavg()[0]:.1f}")
     rates = {}

@@ -22,13 +22,13 @@ import dataclasses
 import json
 import pathlib
 import sys
-import tempfile
 import time
 
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_sim.graph import apply_overrides
+from scratch import scratch_dir
 from hyper_nav_sim.offline_fly import gnss_measurements
 
 CONFIGS = [  # label, scenario, extra filter fields, scenario overrides, measurement kinds used (None: all)
@@ -54,7 +54,7 @@ def _scenario(name, rate_hz, duration_s, overrides=None):
     over = {"duration_s": min(duration_s, sc["duration_s"]), **(overrides or {})}
     if rate_hz is not None:
         over["imu.rate_hz"] = rate_hz
-    return apply_overrides(sc, over, pathlib.Path(tempfile.mkdtemp(prefix="bench_")))
+    return apply_overrides(sc, over, scratch_dir("scenario_"))
 
 
 def _inputs(sc, kinds=None):
@@ -105,7 +105,7 @@ def offline_replay(duration_s: float) -> dict:
     from hyper_nav_filter.offline import run_offline
     from hyper_nav_sim.core.bag import deserialize, read_bag
     sc = _scenario("default", None, duration_s)
-    bag = pathlib.Path(tempfile.mkdtemp(prefix="bench_bag_")) / "default"
+    bag = scratch_dir("bag_") / "default"
     write_sensor_bag(sc, bag)
     t0 = time.perf_counter()
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
