@@ -38,6 +38,7 @@ def test_nan_and_out_of_order_imu_rejected_counted_and_node_keeps_running():
                 time.sleep(0.05)
                 deadline -= 1
             assert pub.get_subscription_count() == 1, g.log("fusion")
+            time.sleep(1.0)                     # discovery is asymmetric: let the reader match this writer too
             stamps = [0.02 * k for k in range(1, 101)]
             for k, t in enumerate(stamps):
                 if k == 40:

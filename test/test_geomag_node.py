@@ -75,6 +75,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
                 assert time.monotonic() < deadline, (tmp_path / "good.log").read_text()
                 assert all(p.poll() is None for p in procs.values())
                 time.sleep(0.1)
+            time.sleep(1.0)                     # discovery is asymmetric: let the readers match these writers too
             # a track north at 2 km/s from 44.1 N 110.2 E; the solution is OFFSET_N_M north of it
             frame = LocalFrame(np.deg2rad(44.1), np.deg2rad(110.2), 26000.0)
             truth = {}
