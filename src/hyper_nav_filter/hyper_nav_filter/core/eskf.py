@@ -29,6 +29,7 @@ from scipy.stats import chi2
 
 from .blocks.base import Block
 from .config import FilterConfig
+from .fast import predict as fast_predict
 from .fast import update as fast_update
 from .frames import make_frame
 from .nav_state import ImuSample, NavState
@@ -235,10 +236,13 @@ class ErrorStateKF:
         vals = new_vals = self.values
         if self._preprocessors:
             dt = imu.dt_s
-            dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, vals)
             prev = self.imu_prev
-            w_prev = None if prev is None else \
-                self.corrected(prev.dtheta_b_rad, prev.dvel_b_mps, prev.dt_s, vals)[0] / prev.dt_s
+            p = imu if prev is None else prev            # fixed argument types: one compiled signature
+            gb, ab, sg, sa = self.sys.roles_args
+            dth, dv, w_prev = fast_predict.corrected_pair(imu.dtheta_b_rad, imu.dvel_b_mps, float(dt),
+                                                          p.dtheta_b_rad, float(p.dt_s), prev is not None, vals, gb, ab, sg, sa)
+            if prev is None:
+                w_prev = None
             new_vals = vals.copy()
             for blk, s in self._preprocessors:
                 dv_remove, new_vals[s] = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, True)

@@ -84,6 +84,7 @@ class SystemModel:
             roles[role] = np.array([lay.value_sl(b.name).start for b in lay.value_blocks if b.imu_role == role],
                                    dtype=np.int64)
         self.roles = roles
+        self.roles_args = (roles["gyro_bias"], roles["accel_bias"], roles["gyro_scale"], roles["accel_scale"])
         # the compiled predict kernels' model arguments, in their order (one tuple, built once)
         self.fast_args = (roles["gyro_bias"], roles["accel_bias"], roles["gyro_scale"], roles["accel_scale"], self.A,
                           self.K["att"], self.K["vel"], self.K_used["att"], self.K_used["vel"], self.G_const,

@@ -35,6 +35,15 @@ def modal_model(cfg) -> ModalModel:
     return ModalModel.from_config(cfg)
 
 
+@lru_cache(maxsize=32)
+def _fast_model(cfg) -> tuple:
+    """The compiled compensation's model argument (``core.fast.lever.model_args``) of a configuration."""
+    return fast_lever.model_args(modal_model(cfg))
+
+
+_ZERO3 = np.zeros(3)
+
+
 class ElasticLeverArm(Block):
     name, size, exact_discretization = "lev", 6, True
     description = "elastic lever-arm modal coordinates q (m) and rates q' (m/s), seed 000 eqs. 9-13"
@@ -90,14 +99,12 @@ class ElasticLeverArm(Block):
         ``dtheta_c``/``dvel_c`` are bias-corrected; ``w_prev`` the corrected mean
         rate of the previous interval (None at the first). ``fast``: the compiled
         form (core.fast.lever), else the reference ``LeverArmCompensator``."""
+        if fast:        # the compiled form starts unset (NaN) modes at the static deflection itself
+            return fast_lever.compensate(np.ascontiguousarray(value), dtheta_c_b_rad, dvel_c_b_mps, float(dt_s),
+                                         _ZERO3 if w_prev_radps is None else w_prev_radps, w_prev_radps is not None,
+                                         _fast_model(cfg))
         m = modal_model(cfg)
         if not np.all(np.isfinite(value)):          # first interval: static deflection
             value = m.equilibrium(dvel_c_b_mps / dt_s)
-        if not fast:
-            dv_cg, lev1, _, _ = LeverArmCompensator(m).compensate(value, dtheta_c_b_rad, dvel_c_b_mps, dt_s,
-                                                                  w_prev_radps)
-            return dvel_c_b_mps - dv_cg, lev1
-        return fast_lever.compensate(np.ascontiguousarray(value), dtheta_c_b_rad, dvel_c_b_mps, float(dt_s),
-                                     np.zeros(3) if w_prev_radps is None else w_prev_radps, w_prev_radps is not None,
-                                     m.Y, m.r0_b_m, m.natural_freq_radps, m.damping_ratio, m.load_gain_kg_per_kg,
-                                     m.deflection_axis_b)
+        dv_cg, lev1, _, _ = LeverArmCompensator(m).compensate(value, dtheta_c_b_rad, dvel_c_b_mps, dt_s, w_prev_radps)
+        return dvel_c_b_mps - dv_cg, lev1

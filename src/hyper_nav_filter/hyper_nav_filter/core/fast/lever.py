@@ -9,18 +9,32 @@ import math
 import numpy as np
 from numba import njit
 
-from .linalg import cross
+from .linalg import cross, mv3
+
+
+def model_args(m) -> tuple:
+    """``compensate``'s model argument from a ``ModalModel`` (float64 arrays)."""
+    return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in
+                 (m.Y, m.r0_b_m, m.natural_freq_radps, m.damping_ratio, m.load_gain_kg_per_kg, m.deflection_axis_b))
 
 
 @njit(cache=True)
-def compensate(lev, dth, dv, dt, w_prev, has_prev, Y, r0, w_n, zeta, load_gain, axis):
-    """lev = [q, q'] at the interval start; dth/dv bias-corrected increments;
-    w_prev the previous interval's corrected mean rate. Returns (lever-arm
-    velocity increment to remove, [q, q'] at the end)."""
+def compensate(lev, dth, dv, dt, w_prev, has_prev, model):
+    """lev = [q, q'] at the interval start (not finite: the first interval,
+    started at the static deflection under this interval's load,
+    ``ModalModel.equilibrium``); dth/dv bias-corrected increments; w_prev the
+    previous interval's corrected mean rate; model = (Y, r0, w_n, zeta,
+    load_gain, axis) (``model_args``). Returns (lever-arm velocity increment
+    to remove, [q, q'] at the end)."""
+    Y, r0, w_n, zeta, load_gain, axis = model
     w_mid = dth / dt
     w_dot = (w_mid - w_prev) / dt if has_prev else np.zeros(3)
     f = dv / dt
     u_load = axis[0] * f[0] + axis[1] * f[1] + axis[2] * f[2]
+    if not np.all(np.isfinite(lev)):
+        lev = np.zeros(6)
+        for i in range(3):
+            lev[i] = load_gain[i] * u_load / (w_n[i] * w_n[i])
     q0, qd0 = lev[0:3], lev[3:6]
     q1, qd1, q_int = np.empty(3), np.empty(3), np.empty(3)
     for i in range(3):
@@ -42,9 +56,9 @@ def compensate(lev, dth, dv, dt, w_prev, has_prev, Y, r0, w_n, zeta, load_gain, 
         q_int[i] = (-(p_vq + 2.0 * sg * (p_qq - 1.0)) / w2 * q0[i] - ((p_vv - 1.0) + 2.0 * sg * p_qv) / w2 * qd0[i]
                     + (dt - g_v - 2.0 * sg * g_q) / w2 * u)
     w_start, w_end = w_mid - 0.5 * dt * w_dot, w_mid + 0.5 * dt * w_dot
-    d_rdot = Y @ (qd1 - qd0)
-    d_r = Y @ (q1 - q0)
-    r_el = Y @ q_int
+    d_rdot = mv3(Y, qd1 - qd0)          # scalar 3 x 3 products (numba's @ calls BLAS, slower at this size)
+    d_r = mv3(Y, q1 - q0)
+    r_el = mv3(Y, q_int)
     dw = w_end - w_start
     cent0 = (cross(w_start, cross(w_start, r0)) + 4.0 * cross(w_mid, cross(w_mid, r0))
              + cross(w_end, cross(w_end, r0))) * dt / 6.0

@@ -28,6 +28,18 @@ def corrected(dth, dv, dt, vals, gb, ab, sg, sa):
 
 
 @njit(cache=True)
+def corrected_pair(dth, dv, dt, pdth, pdt, has_prev, vals, gb, ab, sg, sa):
+    """The IMU pre-processing's inputs: this interval's corrected increments
+    and the previous interval's corrected mean rate (zeros at the first step),
+    both with the current values (``ErrorStateKF._predict_fast``)."""
+    th, v = corrected(dth, dv, dt, vals, gb, ab, sg, sa)
+    if has_prev:
+        th_p, _ = corrected(pdth, dv, pdt, vals, gb, ab, sg, sa)
+        return th, v, th_p / pdt
+    return th, v, np.zeros(3)
+
+
+@njit(cache=True)
 def _basis(k, w, f, wdot):
     """The k-th body-coupling basis of ``system_model``: I, diag(w), diag(f),
     [w x], [wdot x], [w x]^2."""
