@@ -296,7 +296,11 @@ class ErrorStateKF:
     def model(self, meas, ctx):
         """(residual, H, R) of a measurement at the current state, H in this
         filter's own error state (models are written in the ENU convention)."""
-        residual, H, R = meas.model(self.state, self.layout, ctx)
+        fast_model = getattr(meas, "fast_model", None) if self.fast else None
+        if fast_model is not None:          # compiled form, on the geodetic/ENU view only
+            residual, H, R = fast_model(self.frame.view(self.x_nav, self.t_s), self.layout, ctx)
+        else:
+            residual, H, R = meas.model(self.state, self.layout, ctx)
         T9 = self.frame.to_enu(self.x_nav, self.t_s)
         if T9 is not None:
             H = np.array(H, float)

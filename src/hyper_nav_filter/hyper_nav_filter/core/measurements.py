@@ -24,6 +24,7 @@ import numpy as np
 
 from . import earth
 from .attitude import cross3, skew
+from .fast import gnss as fast_gnss
 from .nav_state import NavState
 from .state_layout import StateLayout
 
@@ -49,6 +50,15 @@ class GnssPosition:
         H[:, layout.sl("att")] = skew(l_n)
         return residual, H, self.cov_enu_m2
 
+    def fast_model(self, geo, layout: StateLayout, ctx: "ModelContext"):
+        """``model`` in compiled form (``core.fast.gnss.position``) on the
+        state's (lat, lon, alt, vel_enu, C_b_n)."""
+        lat, lon, alt, v, C = geo
+        residual, H = fast_gnss.position(lat, lon, alt, v, C, float(self.lat_rad), float(self.lon_rad),
+                                         float(self.alt_m), ctx.lever_arm_b_m, ctx.dt_to_meas_s, layout.dim,
+                                         layout.start("pos"), layout.start("att"))
+        return residual, H, self.cov_enu_m2
+
 
 @dataclass(frozen=True)
 class GnssVelocity:
@@ -68,6 +78,13 @@ class GnssVelocity:
         H[:, layout.sl("att")] = skew(lever_vel_n)
         if layout.has("bg"):
             H[:, layout.sl("bg")] = state.C_b_n @ skew(ctx.lever_arm_b_m)
+        return residual, H, self.cov_enu_m2ps2
+
+    def fast_model(self, geo, layout: StateLayout, ctx: "ModelContext"):
+        """``model`` in compiled form (``core.fast.gnss.velocity``)."""
+        residual, H = fast_gnss.velocity(geo[3], geo[4], np.asarray(self.vel_enu_mps, dtype=np.float64),
+                                         ctx.omega_nb_b_radps, ctx.lever_arm_b_m, layout.dim, layout.start("vel"),
+                                         layout.start("att"), layout.start("bg"))
         return residual, H, self.cov_enu_m2ps2
 
 
@@ -166,6 +183,10 @@ class ModelContext:
 
         def omega():
             lat, _, alt, v, C = kf.frame.view(x, t)
+            if kf.fast:
+                return fast_gnss.omega_nb_b(lat, alt, v, C, np.asarray(imu.dtheta_b_rad, dtype=np.float64),
+                                            np.asarray(imu.dvel_b_mps, dtype=np.float64), float(imu.dt_s), vals,
+                                            *kf.sys.roles_args)
             w_ib = kf.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, vals)[0] / imu.dt_s
             w_in = earth.omega_ie_n(lat) + earth.omega_en_n(lat, alt, v)
             return w_ib - C.T @ w_in

@@ -81,6 +81,11 @@ class StateLayout:
     def has(self, name: str) -> bool:
         return name in self._slices
 
+    def start(self, name: str) -> int:
+        """First index of a block, -1 when the layout has none (compiled models' column arguments)."""
+        s = self._slices.get(name)
+        return -1 if s is None else s.start
+
     def describe(self) -> list[str]:
         """Block names with sizes, e.g. ['att:3', 'vel:3', ...] (NavState.state_blocks)."""
         return [f"{n}:{REGISTRY[n].size}" for n in self.names]

@@ -71,3 +71,44 @@ def test_small_inverse_matches_numpy_and_flags_singular():
     H = np.zeros((2, 4))                               # H P H^T + R = 0: status 2, P unchanged
     status, nis, dx, P1 = joseph_update(P, H, np.zeros((2, 2)), np.ones(2), 10.0)
     assert status == 2 and np.isinf(nis) and P1 is P
+
+
+@pytest.mark.parametrize("frame", ["ENU", "LCI"])
+@pytest.mark.parametrize("blocks", [("att", "vel", "pos"), ("att", "vel", "pos", "bg", "ba"),
+                                    ("att", "vel", "pos", "bg", "gm", "ba", "lev")])
+def test_compiled_gnss_models_equal_the_reference(frame, blocks):
+    """GnssPosition / GnssVelocity through ``ErrorStateKF.model``: the compiled
+    form against the reference models (lever arm, body rate, gyro-bias columns,
+    a fix across the 180 deg meridian) to 1e-12."""
+    from hyper_nav_filter.core.config import FilterConfig
+    from hyper_nav_filter.core.eskf import ErrorStateKF
+    from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity, ModelContext
+    from hyper_nav_filter.core.nav_state import ImuSample, NavState
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(11)
+    lever_b = np.array([1.2, -0.4, 0.7])
+    for lon0 in (0.3, np.pi - 1e-7):
+        C = Rotation.from_euler("ZYX", rng.uniform(-1.0, 1.0, 3)).as_matrix()
+        nav = NavState(0.0, 0.6, lon0, 30000.0, np.array([1800.0, 300.0, -40.0]), C,
+                       gyro_bias_b_radps=np.array([1e-5, -2e-5, 3e-5]))
+        cfg = FilterConfig(mechanization_frame=frame, state_blocks=blocks)
+        out = {}
+        for fast in (True, False):
+            kf = ErrorStateKF(cfg, nav)
+            kf.fast = fast
+            imu = ImuSample(0.02, 0.02, np.array([0.002, -0.001, 0.003]), np.array([0.3, 0.1, 0.2]))
+            kf.predict(imu)
+            s = kf.state
+            fix = GnssPosition(kf.t_s + 0.004, s.lat_rad + 2e-6, s.lon_rad + 3e-6 - (2 * np.pi if lon0 > 3 else 0.0),
+                               s.alt_m - 7.0, np.eye(3))
+            if lon0 > 3:
+                assert fix.lon_rad < -3.0                    # the fix is on the far side of 180 deg
+            vel = GnssVelocity(kf.t_s, s.vel_enu_mps + [0.5, -0.2, 0.1], np.eye(3))
+            ctx = ModelContext.at(kf, imu, lever_b)
+            out[fast] = [kf.model(fix, ctx.shifted(0.004)), kf.model(vel, ctx)]
+        for (r1, H1, R1), (r2, H2, R2) in zip(out[True], out[False]):
+            np.testing.assert_allclose(r1, r2, rtol=1e-12, atol=1e-9)
+            np.testing.assert_allclose(H1, H2, rtol=1e-12, atol=1e-12)
+            np.testing.assert_array_equal(R1, R2)
+        assert np.abs(out[False][0][0]).max() < 100.0        # metres, not an Earth circumference
+        assert np.abs(out[False][1][1][:, :3]).max() > 0.0   # the lever arm reaches the attitude columns

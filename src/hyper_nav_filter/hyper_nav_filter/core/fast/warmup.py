@@ -13,7 +13,7 @@ def warm_up() -> float:
     """Run each kernel once on a small filter; returns the seconds it took."""
     from ..config import FilterConfig
     from ..eskf import ErrorStateKF
-    from ..measurements import GnssPosition, ModelContext
+    from ..measurements import GnssPosition, GnssVelocity, ModelContext
     from ..nav_state import ImuSample, NavState
     t0 = time.perf_counter()
     nav = NavState(0.0, 0.5, 2.0, 1000.0, np.array([100.0, 0.0, 0.0]), np.eye(3))
@@ -25,6 +25,9 @@ def warm_up() -> float:
         s = kf.state
         fix = GnssPosition(kf.t_s, s.lat_rad, s.lon_rad, s.alt_m, np.eye(3))
         kf.update(fix.kind, kf.t_s, *kf.model(fix, ModelContext(np.zeros(3), np.zeros(3), 0.0)))
+        vel = GnssVelocity(kf.t_s, kf.state.vel_enu_mps, np.eye(3))
+        ctx = ModelContext.at(kf, ImuSample(kf.t_s, 0.01, np.zeros(3), np.array([0.0, 0.0, 0.098])), np.ones(3))
+        kf.update(vel.kind, kf.t_s, *kf.model(vel, ctx))
     return time.perf_counter() - t0
 
 
