@@ -86,10 +86,10 @@ class ErrorStateKF:
         (default ``config.initial_covariance()``). ``fast``: the compiled
         predict (core.fast) where the frame has one; False keeps the numpy
         reference implementation (``linearize``), which tests compare with."""
-        self.fast = fast
         self.cfg = config
         self.layout = config.layout
         self.frame = make_frame(config, state, **frame_kw)
+        self.fast = fast
         self._set_model(config)
         self.t_s = float(state.t_s)
         self.x_nav = self.frame.nominal(state)
@@ -111,6 +111,16 @@ class ErrorStateKF:
         self.P_prior = self.P
         self.epoch_dx = np.zeros(self.layout.dim)
         self._gate: dict[int, float] = {}
+
+    @property
+    def fast(self) -> bool:
+        return self._fast
+
+    @fast.setter
+    def fast(self, value: bool) -> None:
+        """The frame follows (its geodetic view has a compiled form too)."""
+        self._fast = bool(value)
+        self.frame.fast = self._fast
 
     def _set_model(self, cfg: FilterConfig) -> None:
         self.cfg = cfg

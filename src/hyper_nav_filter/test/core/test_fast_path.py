@@ -112,3 +112,31 @@ def test_compiled_gnss_models_equal_the_reference(frame, blocks):
             np.testing.assert_array_equal(R1, R2)
         assert np.abs(out[False][0][0]).max() < 100.0        # metres, not an Earth circumference
         assert np.abs(out[False][1][1][:, :3]).max() > 0.0   # the lever arm reaches the attitude columns
+
+
+def test_compiled_lci_geodetic_view_equals_numpy():
+    """The LCI frame's geodetic/ENU view (lat, lon, alt, vel_enu, C_b_n, C_n_a)
+    in compiled form against the numpy form, far from launch (1000 s of Earth
+    rotation) and across the 180 deg meridian."""
+    from hyper_nav_filter.core.config import FilterConfig
+    from hyper_nav_filter.core.frames.lci import LciFrame
+    from hyper_nav_filter.core.nav_state import NavState
+    from scipy.spatial.transform import Rotation
+    rng = np.random.default_rng(5)
+    for lon0 in (0.4, np.pi - 2e-5):
+        nav = NavState(100.0, 0.7, lon0, 20000.0, np.array([2500.0, -300.0, 50.0]),
+                       Rotation.from_euler("ZYX", [1.0, 0.2, -0.1]).as_matrix())
+        frame = LciFrame(FilterConfig(mechanization_frame="LCI"), nav)
+        for t_s in (100.0, 350.0, 1100.0):
+            x = frame.nominal(nav)
+            x[0:3] += rng.normal(0.0, 2e4, 3)                   # tens of km away, both sides of 180 deg
+            x[3:6] += rng.normal(0.0, 100.0, 3)
+            out = {}
+            for fast in (True, False):
+                frame.fast, frame._cache_key = fast, None
+                out[fast] = frame._geodetic(x.copy(), t_s)
+            (a, b) = out[True], out[False]
+            np.testing.assert_allclose(a[:2], b[:2], rtol=0, atol=1e-13)          # rad
+            np.testing.assert_allclose(a[2], b[2], rtol=0, atol=1e-7)             # m
+            for u, v in zip(a[3:], b[3:]):
+                np.testing.assert_allclose(u, v, rtol=1e-12, atol=1e-12)

@@ -36,7 +36,7 @@ class EnuFrame:
     nominal_size = NOMINAL_SIZE
 
     def __init__(self, cfg, initial: NavState):
-        pass
+        self.fast = True              # (nothing of the view to compile here; ErrorStateKF.fast sets it)
 
     # ---- nominal state <-> geodetic/ENU view ------------------------------------
     def nominal(self, nav: NavState) -> np.ndarray:

@@ -53,6 +53,7 @@ class LciFrame:
         self._normal_gravity = cfg.lci_gravity == "normal"
         self._cache_key = None
         self._cache = None
+        self.fast = True              # the compiled geodetic view (the filter sets it: ErrorStateKF.fast)
 
     # ---- nominal state <-> geodetic/ENU view ------------------------------------
     def nominal(self, nav: NavState) -> np.ndarray:
@@ -67,6 +68,10 @@ class LciFrame:
         if self._cache_key is not None and self._cache_key[0] is x and self._cache_key[1] == t_s:
             return self._cache
         L = self.launch
+        if self.fast:
+            out = fast_lci.geodetic(x, float(t_s - L.t0_s), L.C_t_a, L.R0_a_m)
+            self._cache_key, self._cache = (x, t_s), out
+            return out
         ang = OMEGA_IE_RADPS * (t_s - L.t0_s)
         c, sn = np.cos(ang), np.sin(ang)
         C_e_a = L.C_t_a @ np.array([[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]])
