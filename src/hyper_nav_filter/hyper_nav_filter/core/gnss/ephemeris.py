@@ -132,6 +132,27 @@ class BroadcastEphemeris:
         return self.system == "C" and self.prn in BDS_GEO_PRNS
 
 
+class EphemerisStack:
+    """Broadcast records of several satellites of one system (and one orbit
+    kind: BDS GEO or not) as arrays, the fields of ``BroadcastEphemeris`` of
+    shape (N,): :func:`satellite_position_ecef` takes it in place of one record,
+    with ``t_s`` of shape (N,), and evaluates every satellite in one pass."""
+
+    def __init__(self, ephs):
+        ephs = list(ephs)
+        kinds = {(e.system, e.is_geo) for e in ephs}
+        if len(kinds) != 1:
+            raise ValueError(f"an EphemerisStack holds one system and orbit kind, got {sorted(kinds)}")
+        (self.system, self.is_geo), = kinds
+        for name in _STACKED_FIELDS:
+            setattr(self, name, np.array([getattr(e, name) for e in ephs], dtype=float))
+        self.toe_s = self.week * SECONDS_PER_WEEK + self.toe
+        self.toc_s = self.week * SECONDS_PER_WEEK + self.toc
+
+    def __len__(self) -> int:
+        return len(self.toe)
+
+
 def _kepler_E(M, e, iters=12):
     """Eccentric anomaly from mean anomaly (Newton; converged to 1e-15 rad)."""
     E = M.copy()
@@ -144,6 +165,8 @@ def satellite_position_ecef(eph: BroadcastEphemeris, t_s, dt_s=0.0):
     """Satellite ECEF state and clock from a broadcast record (seed 004 eq. 8, 10;
     IS-GPS-200 Table 20-IV and 20.3.3.3.3.1; BDS-SIS-ICD 5.2.4.12 for GEO).
 
+    ``eph``: one record, or an :class:`EphemerisStack` of N records with
+    ``t_s`` of shape (N,) (one epoch per satellite).
     t_s: continuous seconds in the satellite's system time (GPST for 'G', BDT
     for 'C'), scalar or array of shape (N,). ``dt_s`` (same shape or scalar) is
     added to t_s *after* subtracting toe: pass small offsets (e.g. -light time)
@@ -217,6 +240,10 @@ def satellite_position_ecef(eph: BroadcastEphemeris, t_s, dt_s=0.0):
     if scalar:
         return r_e[0], v_e[0], clk[0], clk_dot[0]
     return r_e, v_e, clk, clk_dot
+
+
+_STACKED_FIELDS = ("toe", "toc", "week", "sqrtA", "e", "i0", "Omega0", "omega", "M0", "delta_n", "idot",
+                   "OmegaDot", "cuc", "cus", "crc", "crs", "cic", "cis", "af0", "af1", "af2", "tgd")
 
 
 def select_ephemeris(ephs, sat_id: str, t_s: float, max_age_s: float | None = None):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import earth
-from .ephemeris import C_MPS, constants, satellite_position_ecef, system_time_s
+from .ephemeris import C_MPS, EphemerisStack, constants, satellite_position_ecef, system_time_s
 
 
 def rot3(theta):
@@ -41,14 +41,21 @@ def satellite_states_at_reception(ephs, t_gpst_s, r_rx_e_m, iters=4):
     v = np.empty((n, 3))
     cb, cd, tau = np.empty(n), np.empty(n), np.full(n, 0.075)
     we = np.empty(n)
-    for k, e in enumerate(ephs):
-        we[k] = constants(e.system)[1]
-        t_sys = system_time_s(e.system, t_gpst_s)
+    r_rx = np.asarray(r_rx_e_m, float)
+    groups: dict = {}
+    for k, e in enumerate(ephs):                 # one pass per system and orbit kind, all satellites at once
+        groups.setdefault((e.system, e.is_geo), []).append(k)
+    for (system, _), idx in groups.items():
+        stack = EphemerisStack([ephs[k] for k in idx])
+        w = constants(system)[1]
+        t_sys = np.full(len(idx), system_time_s(system, t_gpst_s))
+        tau_g = tau[idx]
         for _ in range(iters):
-            r[k], v[k], cb[k], cd[k] = satellite_position_ecef(e, t_sys, -tau[k])
-            R, _ = rot3(np.array(we[k] * tau[k]))
-            tau[k] = np.linalg.norm(R @ r[k] - r_rx_e_m) / C_MPS
-        r[k], v[k], cb[k], cd[k] = satellite_position_ecef(e, t_sys, -tau[k])
+            r_g = satellite_position_ecef(stack, t_sys, -tau_g)[0]
+            R, _ = rot3(w * tau_g)
+            tau_g = np.linalg.norm(np.einsum("nij,nj->ni", R, r_g) - r_rx, axis=1) / C_MPS
+        r[idx], v[idx], cb[idx], cd[idx] = satellite_position_ecef(stack, t_sys, -tau_g)
+        tau[idx], we[idx] = tau_g, w
     R, dR = rot3(we * tau)
     return r, v, cb, cd, tau, R, dR * we[:, None, None]
 

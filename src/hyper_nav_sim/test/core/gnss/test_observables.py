@@ -89,3 +89,30 @@ def test_clock_model_statistics():
     t = np.arange(11.0)
     d = np.array([cm.simulate(t, rng)[1][-1] for _ in range(2000)])
     assert np.var(d) == pytest.approx(Q[1, 1] * 10, rel=0.1)
+
+
+def test_stacked_light_time_equals_per_satellite(vis):
+    """``satellite_states_at_reception`` evaluates each system and orbit kind
+    in one pass (``EphemerisStack``): the same states as the per-satellite
+    light-time iteration with one record at a time (real GPS and BDS records,
+    BDS GEO included), to 1e-6 m, 1e-9 m/s and 1e-15 s (array and scalar
+    trigonometry may differ in the last bit)."""
+    ephs, _ = vis
+    assert {e.system for e in ephs} == {"G", "C"} and any(e.is_geo for e in ephs)
+    r_s, v_s, cb, cd, tau, R, dR = ob.satellite_states_at_reception(ephs, T0, R0)
+    for k, e in enumerate(ephs):
+        w = ep.constants(e.system)[1]
+        t_sys = ep.system_time_s(e.system, T0)
+        t = 0.075
+        for _ in range(4):
+            r = ep.satellite_position_ecef(e, t_sys, -t)[0]
+            c, s = np.cos(w * t), np.sin(w * t)
+            t = np.linalg.norm(np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ r - R0) / ep.C_MPS
+        r, v, b, d = ep.satellite_position_ecef(e, t_sys, -t)
+        assert tau[k] == pytest.approx(t, abs=1e-15)
+        np.testing.assert_allclose(r_s[k], r, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(v_s[k], v, rtol=0, atol=1e-9)
+        assert cb[k] == pytest.approx(b, abs=1e-15) and cd[k] == pytest.approx(d, abs=1e-18)
+    from hyper_nav_filter.core.gnss.ephemeris import EphemerisStack
+    with pytest.raises(ValueError, match="one system"):
+        EphemerisStack(ephs)
