@@ -57,7 +57,6 @@ import numpy as np
 import yaml
 from ament_index_python.packages import get_package_prefix
 
-from hyper_nav_filter.core.initial_state import state_values
 
 from .core.fields import suggestion
 from .core.scenario import Scenario, ScenarioError, check_override_key, known_fields, load_scenario, validate
@@ -158,11 +157,10 @@ def flat_parameters(block: dict, prefix: str, skip=()) -> dict:
 def fusion_parameters(sc: Scenario) -> dict:
     """The fusion node's ROS parameters, all derived from the scenario."""
     from hyper_nav_filter.sources import spec_to_params
-    init = sc.filter_initial_state()
     start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
     params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
     params.update(spec_to_params(sc.filter_source_specs()))
-    params.update({f"init.{k}": v for k, v in state_values(init).items()})
+    params.update({f"init.{k}": v for k, v in sc.filter_initial_values().items()})
     params.update({
         "tf.magnetometer_position_b_m": [float(x) for x in sc["magnetometer.lever_arm_b_m"]],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
