@@ -60,6 +60,32 @@ class LateInput:
                    str(m.outcome))
 
 
+class LateInputTracker:
+    """The live side: which arriving messages to report on
+    ``nav/late_inputs`` (the fusion node calls ``arrival`` before handling a
+    message and ``imu_accepted`` after an IMU sample was taken)."""
+
+    def __init__(self):
+        self.imu_ns: int | None = None            # stamp of the newest accepted IMU sample
+        self._occurrence: dict[str, tuple] = {}   # topic -> (stamp, earlier messages with it)
+
+    def arrival(self, topic: str, t_ns: int | None, drives_time: bool, last_released_s: float):
+        """(report or None, applied after release): the report (outcome
+        still to be set) when the message comes behind the IMU: an aiding
+        message stamped before the newest IMU sample, an IMU sample not after
+        it."""
+        name = topic.lstrip("/")
+        last, n = self._occurrence.get(name, (None, 0))
+        n = n + 1 if t_ns == last else 0        # a publisher sends in order: equal stamps are adjacent
+        self._occurrence[name] = (t_ns, n)
+        if t_ns is None or self.imu_ns is None or not (t_ns <= self.imu_ns if drives_time else t_ns < self.imu_ns):
+            return None, False
+        return LateInput(name, t_ns, n, self.imu_ns, ""), t_ns * 1e-9 <= last_released_s + 1e-9
+
+    def imu_accepted(self, t_ns: int) -> None:
+        self.imu_ns = int(t_ns)
+
+
 @dataclass
 class ReplayOrder:
     """The records to feed (``records``: (topic, message) pairs) and what was

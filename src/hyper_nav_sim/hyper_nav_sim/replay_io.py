@@ -66,6 +66,7 @@ def sigma_blocks(sols, layout) -> dict:
 def main(args) -> int:
     from hyper_nav_filter.core.attitude import C_b_n_to_euler
     from hyper_nav_filter.offline import run_offline
+    from hyper_nav_filter.replay_order import LATE_INPUTS_TOPIC
 
     from . import report
     from .core.bag import deserialize, read_bag
@@ -81,7 +82,7 @@ def main(args) -> int:
     inputs = {i.topic.lstrip("/") for src in make_sources(parse_sources(sources), cfg) for i in src.inputs()}
     reader = read_bag(args.bag)
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader
-               if r.topic.lstrip("/") in inputs | {"truth/state"}]
+               if r.topic.lstrip("/") in inputs | {"truth/state", LATE_INPUTS_TOPIC}]
     if reader.truncated:
         print(f"[replay_filter] WARNING: bag is truncated ({reader.error}); replaying what was readable")
     stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in records]

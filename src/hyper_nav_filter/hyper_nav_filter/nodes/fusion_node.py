@@ -34,7 +34,7 @@ from ..core.fast.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
-from ..replay_order import LATE_INPUTS_TOPIC, stamp_ns
+from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
 from ..ros_util import (all_matched, assign_fields, declare_params, diagnostic_array, latched_qos, publisher_qos,
@@ -109,8 +109,7 @@ class FusionNode(Node):
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
         # inputs received behind the IMU (replay_order): transient local, so a late-joining recorder gets them
         self.pub_late = self.create_publisher(LateInput, LATE_INPUTS_TOPIC, latched_qos(p["qos.depth"]))
-        self._imu_stamp = None           # header.stamp of the newest accepted IMU sample
-        self._occurrence = {}            # topic -> (stamp_ns, earlier messages with that stamp)
+        self.late = LateInputTracker()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
         if self.pub_tf is not None:
@@ -168,38 +167,26 @@ class FusionNode(Node):
         if src.drives_time:
             self._last_imu_wall = time.monotonic()
         t_ns = stamp_ns(msg)
-        occurrence = self._count_occurrence(topic, t_ns)
-        imu = self._imu_stamp
-        imu_ns = None if imu is None else imu.sec * 1_000_000_000 + imu.nanosec
-        behind = t_ns is not None and imu_ns is not None and (t_ns <= imu_ns if src.drives_time else t_ns < imu_ns)
-        after_release = behind and t_ns * 1e-9 <= self.engine.last_released_t_s + 1e-9
+        report, after_release = self.late.arrival(topic, t_ns, src.drives_time, self.engine.last_released_t_s)
         reason, sols = self.router.handle(src, role, msg)
         if reason is None and not src.drives_time:
             self._last_msg_t[src.id] = self.engine.t_latest_s
         elif reason is not None:
             self.get_logger().warning(f"{src.id}: rejected {role} message: {reason}", throttle_duration_sec=5.0)
         if src.drives_time and reason is None:
-            self._imu_stamp = msg.header.stamp
-        if behind:
-            self._publish_late(msg, topic, occurrence, imu,
-                               reason or ("applied_after_release" if after_release else "applied"))
+            self.late.imu_accepted(t_ns)
+        if report is not None:
+            self._publish_late(msg, report, reason or ("applied_after_release" if after_release else "applied"))
         self._publish(sols)
 
-    def _count_occurrence(self, topic, t_ns) -> int:
-        """How many earlier messages of ``topic`` had the stamp ``t_ns`` (a
-        publisher sends its messages in order, so equal stamps are adjacent)."""
-        last, n = self._occurrence.get(topic, (None, 0))
-        n = n + 1 if t_ns == last else 0
-        self._occurrence[topic] = (t_ns, n)
-        return n
-
-    def _publish_late(self, msg, topic, occurrence, imu_stamp, outcome):
+    def _publish_late(self, msg, report, outcome):
         """Report an input received behind the IMU (``nav/late_inputs``), so a
         replay can feed it where the node received it (``replay_order``)."""
         m = LateInput()
         m.header.stamp = msg.header.stamp
         m.header.frame_id = getattr(msg.header, "frame_id", "")
-        m.topic, m.occurrence, m.after_imu_stamp, m.outcome = topic, occurrence, imu_stamp, outcome
+        m.topic, m.occurrence, m.outcome = "/" + report.topic, report.occurrence, outcome
+        m.after_imu_stamp.sec, m.after_imu_stamp.nanosec = divmod(report.after_imu_ns, 1_000_000_000)
         self.pub_late.publish(m)
         self.counts[f"published {LATE_INPUTS_TOPIC}"] += 1
 
