@@ -140,10 +140,12 @@ class GeomagAiding:
         if not all(np.all(np.isfinite(v)) for v in (nav.lat_rad, nav.lon_rad, nav.alt_m, nav.vel_enu_mps)):
             self.counters["rejected_nav_nan"] += 1
             return None
+        if self.epoch is not None:                       # this sample's, also on a result without a map
+            self.last_epoch_bias_nT = self.epoch.bias_nT(nav.lat_rad, nav.lon_rad, sample.t_s)
         if self.map is None:
             return self._invalid(sample.t_s, f"no map: {self.map_problem}", "no_map")
         if self.epoch is not None:
-            b = self.last_epoch_bias_nT = self.epoch.bias_nT(nav.lat_rad, nav.lon_rad, sample.t_s)
+            b = self.last_epoch_bias_nT
             if abs(b) > self.cfg.map_epoch_tolerance_nT:
                 self.matcher.reset()
                 return self._invalid(sample.t_s, f"map epoch: {b:+.3g} nT of secular change at t = "

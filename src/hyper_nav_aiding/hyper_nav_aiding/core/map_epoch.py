@@ -218,17 +218,20 @@ class EpochOffset:
                 "map_epoch_bias_max_nT": round(self.bias_max_nT, 4)}
 
     def describe(self) -> str:
+        """One line naming both fields, the years between them and the implied nT."""
         how = (f"brought forward with {self.map_model}'s secular variation" if self.brought_forward
                else "used as built")
+        models = (self.map_model if self.map_model == self.measurement_model
+                  else f"{self.map_model} map, {self.measurement_model} at the flight")
         return (f"{MAP_EPOCH_FIELD} = {self.map_epoch_decimal_year:g} and {MEASUREMENT_EPOCH_FIELD} = "
                 f"{self.measurement_epoch_decimal_year:g} are {abs(self.years):.3f} years apart: the total field "
                 f"at the flight's date differs from the map ({how}) by {self.bias_mean_nT:+.3g} nT (mean over "
-                f"the map; {self.bias_min_nT:+.3g} to {self.bias_max_nT:+.3g} nT at {self.alt_m:.0f} m; "
-                f"{self.map_model if self.map_model == self.measurement_model else self.map_model + ' map, ' + self.measurement_model + ' at the flight'})")
+                f"the map; {self.bias_min_nT:+.3g} to {self.bias_max_nT:+.3g} nT at {self.alt_m:.0f} m; {models})")
 
 
 @functools.lru_cache(maxsize=64)
-def map_epoch_offset(spec: MapSpec, measurement_epoch_decimal_year: float, brought_forward: bool = False) -> EpochOffset:
+def map_epoch_offset(spec: MapSpec, measurement_epoch_decimal_year: float,
+                     brought_forward: bool = False) -> EpochOffset:
     """Eq. (2) on the coarse grid over ``spec``'s region at its altitude.
     ``spec.epoch_decimal_year`` and ``measurement_epoch_decimal_year`` must
     each be inside a WMM release (WmmDateError naming the field)."""
