@@ -355,7 +355,9 @@ class Graph:
         elif name == "geomag":
             p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
             p.update({"min_subscribers": self._subscribers([AIDING_OUTPUTS["geomag"]]),
-                      "qos.depth": int(self.scenario["graph.qos_depth"])})
+                      "qos.depth": int(self.scenario["graph.qos_depth"]),
+                      # the flight's date: the node checks its map's epoch against it (issue 27)
+                      "magnetometer.epoch_decimal_year": float(self.scenario["magnetometer.epoch_decimal_year"])})
         elif name == "lever_arm":
             p = aiding_parameters(self.scenario, AIDING_NODES["lever_arm"][0])
         elif name == "recorder":

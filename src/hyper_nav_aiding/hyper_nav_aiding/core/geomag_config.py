@@ -86,6 +86,12 @@ class GeomagConfig:
                                      "waits for its solution", 0.0, 100.0)
     map_file: str = _f("", "map file (.npz); empty: the cache (map_cache_dir) for the map spec")
     map_cache_dir: str = _f("", "map cache directory; empty: ~/.cache/hyper_nav/geomag")
+    map_epoch_tolerance_nT: float = _f(0.1, "largest |F at the flight's date - F of the map| over the map (nT) "
+                                       "that the map's epoch may imply (secular variation, core.map_epoch); "
+                                       "beyond it the map is refused; 0.1 nT = seed 003's smallest map-error level",
+                                       0.0, 1e6)
+    map_bring_forward: bool = _f(False, "bring the map from its epoch to the flight's date with the WMM's "
+                                 "secular-variation coefficients (core.map_epoch.bring_forward)")
     map: MapSpec = field(default_factory=MapSpec, metadata={"desc": "the map (model, epoch, altitude, grid)"})
     magcom: MagcomParams = field(default_factory=MagcomParams, metadata={"desc": "MAGCOM"})
     iccp: IccpParams = field(default_factory=IccpParams, metadata={"desc": "ICCP"})

@@ -126,6 +126,9 @@ OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources",   # fi
 AIDING_BLOCKS = {"virtual_gnss": ("hyper_nav_aiding.core.virtual_gnss_config", "VirtualGnssConfig.from_config"),
                  "geomag": ("hyper_nav_aiding.core.geomag_config", "GeomagConfig.from_dict"),
                  "lever_arm_learning": ("hyper_nav_aiding.core.lever_arm.config", "LeverArmLearningConfig.from_block")}
+# an aiding block against the rest of the scenario (called with the whole data): the geomagnetic
+# map's epoch against magnetometer.epoch_decimal_year (issue 27)
+AIDING_SCENARIO_CHECKS = {"geomag": ("hyper_nav_aiding.core.map_epoch", "check_scenario")}
 
 
 def known_fields() -> dict[str, frozenset]:
@@ -532,6 +535,17 @@ def _validate_models(data: dict, source: str) -> None:
             obj = getattr(obj, attr)
         try:
             obj(data[block])
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: {exc}") from None
+    for block, (module, func) in AIDING_SCENARIO_CHECKS.items():
+        if block not in data:
+            continue
+        try:
+            check = getattr(importlib.import_module(module), func)
+        except ImportError:         # hyper_nav_aiding not installed
+            continue
+        try:
+            check(data)
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
     if "tracker" in data:
