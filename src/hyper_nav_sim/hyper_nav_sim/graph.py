@@ -358,6 +358,8 @@ class Graph:
                       "qos.depth": int(self.scenario["graph.qos_depth"]),
                       # the flight's date: the node checks its map's epoch against it (issue 27)
                       "magnetometer.epoch_decimal_year": float(self.scenario["magnetometer.epoch_decimal_year"])})
+            # the solution a sample is matched against: the newest released when the IMU reaches its stamp
+            p.setdefault("geomag.nav_reference_lag_s", float(self.scenario.filter_config().output_delay_s))
         elif name == "lever_arm":
             p = aiding_parameters(self.scenario, AIDING_NODES["lever_arm"][0])
         elif name == "recorder":

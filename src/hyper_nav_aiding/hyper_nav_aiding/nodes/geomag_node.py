@@ -9,11 +9,12 @@ per match attempt, valid or not), and ``/diagnostics``. All math is in
 ``hyper_nav_aiding.core`` (``GeomagAiding``, the same engine the offline
 reproduction runs).
 
-Each magnetometer sample is paired with a solution for its stamp
-(``core.nav_reference``: interpolated when nav/state is ahead, else the
-newest one carried forward, since the fusion node releases its solutions
-``output_delay_s`` behind: the fix then reaches the filter before it
-releases that epoch) and queued to a worker thread, which matches and
+Each magnetometer sample is paired with a solution for its stamp, chosen by
+stamps alone (``core.nav_reference``: the newest solution stamped at least
+``nav_reference_lag_s`` before it, carried forward; the lag is the fusion
+node's ``output_delay_s``, so the fix reaches the filter before it releases
+that epoch, and the pairing does not depend on which topic arrived first)
+and queued to a worker thread, which matches and
 publishes: MAGCOM's search (~0.1 s) or a map build (tens of seconds at
 first start) never blocks the callbacks. The map is loaded (or built into
 the cache) on that thread too.
@@ -112,7 +113,7 @@ class GeomagNode(Node):
         self.counts = collections.Counter()
         self._lock = threading.Lock()
         self._mag = collections.deque()             # MagSample waiting for its nav/state
-        self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s)
+        self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s, self.cfg.nav_reference_lag_s)
         self._last_mag_t = -np.inf
         self._jobs: queue.Queue = queue.Queue()
         self._stop = threading.Event()
