@@ -63,7 +63,10 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
     domain_id = int(os.environ.get("ROS_DOMAIN_ID", "0")) or 77
     gmap = GeomagMap.build(SPEC)
     map_file = gmap.save(tmp_path / "map.npz")
+    # nav_reference_lag_s 0: each sample against the solution of its own stamp (interpolated), which
+    # the node takes once the next solution is in (the track below runs 0.5 s past the last sample)
     base = {"algorithm": "EKF", "start_s": 0.0, "field_sigma_nT": 0.5, "map_file": str(map_file),
+            "nav_reference_lag_s": 0.0,
             "map": {k: getattr(SPEC, k) for k in SPEC.__dataclass_fields__}, "ekf": {"map_error_corr_length_m": 0.0}}
     good = GeomagConfig.from_dict(base)
     bad = GeomagConfig.from_dict({**base, "map": {**base["map"], "epoch_decimal_year": 2026.0}})
@@ -86,7 +89,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
             # a track north at 2 km/s from 44.1 N 110.2 E; the solution is OFFSET_N_M north of it
             frame = LocalFrame(np.deg2rad(44.1), np.deg2rad(110.2), 26000.0)
             truth, nav_at = {}, {}
-            for k in range(0, 121):
+            for k in range(0, 126):
                 t = 0.1 * k
                 true_en = np.array([0.0, 2000.0 * t])
                 nav_en = true_en + [0.0, OFFSET_N_M]
@@ -103,7 +106,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
                 nav.covariance = P.ravel().tolist()
                 for pn, _ in pubs.values():
                     pn.publish(nav)
-                if k % 10 == 0 and k > 0:
+                if k % 10 == 0 and 0 < k <= 120:
                     tl, tlo = frame.to_geodetic(true_en)
                     f = float(gmap.total_nT(tl, tlo, 26000.0))
                     truth[round(t)] = (float(tl), float(tlo))

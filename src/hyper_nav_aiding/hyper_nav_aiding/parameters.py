@@ -44,6 +44,9 @@ NODE_PARAMETERS = {
     "qos.depth": (2000, "publisher and subscriber queue depth"),
     "min_output_subscribers": (0, "subscriptions the output topic must see before inputs are taken"),
     "frame_id": ("gnss_antenna", "header.frame_id of the output"),
+    "clock.deadline_s": (1e9, "while a receiver epoch t waits to be processed, the simulated clock may not pass "
+                         "t + this (sim s; /graph/allowance, hyper_nav_filter.clock_gate): run_graph sets the fusion "
+                         "output delay minus 0.2 s, so every virtual epoch reaches the filter before its release"),
 }
 
 
@@ -68,6 +71,7 @@ class VirtualGnssNodeParams:
     qos_depth: int
     min_output_subscribers: int
     frame_id: str
+    clock_deadline_s: float = 1e9
 
     @classmethod
     def from_values(cls, values: dict) -> "VirtualGnssNodeParams":
@@ -94,7 +98,7 @@ class VirtualGnssNodeParams:
         if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0:
             raise VirtualGnssConfigError(f"gnss.rate_hz: expected a number > 0, got {rate!r}")
         return cls(cfg, corr, float(rate), lever, int(v["seed"]), int(v["qos.depth"]),
-                   int(v["min_output_subscribers"]), str(v["frame_id"]))
+                   int(v["min_output_subscribers"]), str(v["frame_id"]), float(v["clock.deadline_s"]))
 
 
 def from_scenario(sc) -> dict:

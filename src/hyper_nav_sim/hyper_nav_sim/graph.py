@@ -79,6 +79,7 @@ AIDING_NODES = {
 }
 AIDING_OUTPUTS = {"geomag": "geomag/fix"}
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
+CLOCK_GATED = ("fusion", "geomag", "virtual_gnss", "lever_arm")   # nodes the clock waits for (clock_gate)
 TRACKER_OUTPUTS = ["track/fix", "track/vel"]     # tracker_node: starts with a radar block (seed 002)
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
 EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
@@ -298,6 +299,22 @@ class Graph:
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
 
+    def _clock_gate(self) -> dict:
+        """The time source waits for these nodes' allowances (hyper_nav_filter.clock_gate): on a
+        loaded machine the flight slows down instead of losing or delaying data. Set
+        graph.clock_gate: false in the scenario to pace by the wall clock alone."""
+        if not self.scenario["graph.clock_gate"]:
+            return {}
+        names = [{"lever_arm": "lever_arm_learning"}.get(n, n) for n in self.nodes if n in CLOCK_GATED]
+        if self.record:
+            names.append("recorder")
+        return {"allowance_nodes": names} if names else {}
+
+    def _deadline_s(self) -> float:
+        """An aiding output for epoch t must reach the fusion node before it releases t: the
+        clock waits at t + output_delay_s - 0.2 s while it is pending."""
+        return max(0.1, float(self.scenario.filter_config().output_delay_s) - 0.2)
+
     def _waits(self) -> dict:
         """The time source waits for these subscriber counts on the user's topics."""
         return {t: n for t, n in self.extra.items() if n > 0 and t != "/clock"}
@@ -336,6 +353,7 @@ class Graph:
             waits = self._waits()
             if waits:
                 p.update({"wait_topics": list(waits), "wait_counts": list(waits.values())})
+            p.update(self._clock_gate())
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
             # each output is published only once its subscribers exist; the user's own
@@ -352,14 +370,17 @@ class Graph:
             from hyper_nav_aiding.parameters import from_scenario
             p = from_scenario(self.scenario)
             p["min_output_subscribers"] = self._subscribers([p["virtual_gnss.topic"]])
+            p["clock.deadline_s"] = self._deadline_s()
         elif name == "geomag":
             p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
             p.update({"min_subscribers": self._subscribers([AIDING_OUTPUTS["geomag"]]),
                       "qos.depth": int(self.scenario["graph.qos_depth"]),
                       # the flight's date: the node checks its map's epoch against it (issue 27)
                       "magnetometer.epoch_decimal_year": float(self.scenario["magnetometer.epoch_decimal_year"])})
-            # the solution a sample is matched against: the newest released when the IMU reaches its stamp
-            p.setdefault("geomag.nav_reference_lag_s", float(self.scenario.filter_config().output_delay_s))
+            # the solution a sample is matched against (by stamps): one released a second before the sample
+            # is taken, so the fix is made when the sample comes and reaches the filter before its release
+            p.setdefault("geomag.nav_reference_lag_s", float(self.scenario.filter_config().output_delay_s) + 1.0)
+            p["clock.deadline_s"] = self._deadline_s()
         elif name == "lever_arm":
             p = aiding_parameters(self.scenario, AIDING_NODES["lever_arm"][0])
         elif name == "recorder":
@@ -373,6 +394,7 @@ class Graph:
                 p.update({"bag": str(self.replay), "rate": float(self.scenario["graph.real_time_factor"]),
                           "topics": list(self._replay_topics), "wait_topics": list(waits),
                           "wait_counts": list(waits.values()), "wait_timeout_s": 60.0})
+                p.update(self._clock_gate())
         elif name == "monitor":
             rates = stream_rates_hz(self.scenario)
             streams = self.streams()

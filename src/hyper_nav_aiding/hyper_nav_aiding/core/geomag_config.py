@@ -83,10 +83,11 @@ class GeomagConfig:
                               "stamp (s)", 0.0, 100.0)
     max_nav_prediction_s: float = _f(2.0, "a reference solution is carried forward to the magnetometer stamp "
                                      "if it is at most this old (s)", 0.0, 100.0)
-    nav_reference_lag_s: float = _f(1.0, "a magnetometer sample at t is matched against the newest nav/state "
+    nav_reference_lag_s: float = _f(2.0, "a magnetometer sample at t is matched against the newest nav/state "
                                     "stamped at or before t - lag, carried to t (core.nav_reference; chosen by "
-                                    "stamps, not by arrival); run_graph sets it to filter.config.output_delay_s; "
-                                    "0 = interpolate at t (waits for that solution)", 0.0, 100.0)
+                                    "stamps, not by arrival); run_graph sets it to filter.config.output_delay_s "
+                                    "+ 1 s, so that solution is out before the sample comes and the fix is made "
+                                    "at once; 0 = interpolate at t (waits for that solution)", 0.0, 100.0)
     map_file: str = _f("", "map file (.npz); empty: the cache (map_cache_dir) for the map spec")
     map_cache_dir: str = _f("", "map cache directory; empty: ~/.cache/hyper_nav/geomag")
     map_epoch_tolerance_nT: float = _f(0.1, "largest |F at the flight's date - F of the map| over the map (nT) "

@@ -183,6 +183,11 @@ class VirtualGnss:
         self._queue.append(raw)
         return None
 
+    @property
+    def pending_t_s(self) -> float | None:
+        """Stamp of the oldest receiver epoch waiting to be processed (None: none)."""
+        return self._queue[0].t_s if self._queue else None
+
     def ready(self) -> list[RawGnssEpoch]:
         """Virtual epochs of the queued receiver epochs that can be processed
         now (all with the alpha-beta source; with the fused source those the

@@ -11,9 +11,10 @@ reproduction runs).
 
 Each magnetometer sample is paired with a solution for its stamp, chosen by
 stamps alone (``core.nav_reference``: the newest solution stamped at least
-``nav_reference_lag_s`` before it, carried forward; the lag is the fusion
-node's ``output_delay_s``, so the fix reaches the filter before it releases
-that epoch, and the pairing does not depend on which topic arrived first)
+``nav_reference_lag_s`` before it, carried forward; run_graph sets the lag to
+the fusion node's ``output_delay_s`` + 1 s, so that solution is out when the
+sample comes and the fix reaches the filter before it releases that epoch;
+the pairing does not depend on which topic arrived first)
 and queued to a worker thread, which matches and
 publishes: MAGCOM's search (~0.1 s) or a map build (tens of seconds at
 first start) never blocks the callbacks. The map is loaded (or built into
@@ -47,6 +48,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from sensor_msgs.msg import MagneticField, NavSatFix
 
+from hyper_nav_filter.clock_gate import ClockAllowance
 from hyper_nav_filter.ros_util import (all_matched, assign_fields, diagnostic_array, publisher_qos, run_node,
                                       subscriber_qos)
 
@@ -103,7 +105,11 @@ class GeomagNode(Node):
                  ("min_subscribers", 0, "subscribe to the inputs once geomag/fix has this many subscribers"),
                  ("max_queue", 30, "samples waiting for the matcher before the oldest is dropped"),
                  ("diagnostics_period_s", 1.0, "period of /diagnostics"),
-                 ("map.build_if_missing", True, "build the configured map into the cache when missing")]}
+                 ("map.build_if_missing", True, "build the configured map into the cache when missing"),
+                 ("clock.deadline_s", float("inf"), "while a sample stamped t waits for its fix, the simulated "
+                  "clock may not pass t + this (sim s; /graph/allowance, hyper_nav_filter.clock_gate): run_graph "
+                  "sets the fusion output delay minus 0.2 s, so every fix reaches the filter before its epoch is "
+                  "released; inf = never hold the clock")]}
         self.p = p
         qos = publisher_qos(p["qos.depth"])
         self.pub_fix = self.create_publisher(NavSatFix, "geomag/fix", qos)
@@ -113,6 +119,8 @@ class GeomagNode(Node):
         self.counts = collections.Counter()
         self._lock = threading.Lock()
         self._mag = collections.deque()             # MagSample waiting for its nav/state
+        self._inflight: dict[float, int] = {}       # stamps of samples not yet matched or dropped
+        self.allowance = ClockAllowance(self, source=self._allowance)
         self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s, self.cfg.nav_reference_lag_s)
         self._last_mag_t = -np.inf
         self._jobs: queue.Queue = queue.Queue()
@@ -157,8 +165,24 @@ class GeomagNode(Node):
             self.counts["rejected_mag_out_of_order"] += 1
             return
         self._last_mag_t = s.t_s
+        with self._lock:
+            self._inflight[s.t_s] = self._inflight.get(s.t_s, 0) + 1
         self._mag.append(s)
         self._pair()
+
+    def _done(self, t_s: float) -> None:
+        """A sample is matched (or dropped): it no longer holds the clock."""
+        with self._lock:
+            n = self._inflight.get(t_s, 0) - 1
+            if n > 0:
+                self._inflight[t_s] = n
+            else:
+                self._inflight.pop(t_s, None)
+
+    def _allowance(self) -> float:
+        with self._lock:
+            oldest = min(self._inflight, default=None)
+        return float("inf") if oldest is None else oldest + self.p["clock.deadline_s"]
 
     def _on_nav(self, msg):
         self.counts["received nav/state"] += 1
@@ -182,11 +206,13 @@ class GeomagNode(Node):
             self._mag.popleft()
             if nav is None:
                 self.counts[f"rejected_mag_nav_{why}"] += 1
+                self._done(s.t_s)
                 continue
             if self._jobs.qsize() >= self.p["max_queue"]:
                 try:
-                    self._jobs.get_nowait()
+                    old, _ = self._jobs.get_nowait()
                     self.counts["dropped_backlog"] += 1
+                    self._done(old.t_s)
                 except queue.Empty:
                     pass
             self._jobs.put((s, nav))
@@ -204,11 +230,12 @@ class GeomagNode(Node):
             except Exception as exc:  # noqa: BLE001 - a matcher bug must not kill the node
                 self.counts["matcher_exceptions"] += 1
                 self.get_logger().error(f"matcher failed at t = {s.t_s:.3f}: {exc}", throttle_duration_sec=5.0)
+                self._done(s.t_s)
                 continue
-            if res is None:
-                continue
-            with self._lock:
-                self._publish(res, nav)
+            if res is not None:
+                with self._lock:
+                    self._publish(res, nav)
+            self._done(s.t_s)
 
     def _publish(self, res, nav):
         q = MatchQuality()

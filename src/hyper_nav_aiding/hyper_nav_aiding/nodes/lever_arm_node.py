@@ -8,8 +8,9 @@ nav - GNSS at each fix epoch to the trigger (``core.lever_arm.trigger``). When
 it fires, the window is re-estimated in a worker process
 (``core.lever_arm.worker``; the callbacks never wait for it). An accepted
 estimate is published on ``nav/model_update`` (hyper_nav_msgs/ModelUpdate,
-model "lever_arm") stamped at the newest IMU epoch seen plus
-``update_lead_s``; a rejected, failed or timed-out one publishes nothing (the
+model "lever_arm") stamped at the trigger epoch plus ``update_delay_s`` (or,
+for a job that ends later, at the newest IMU epoch seen plus
+``update_lead_s``); a rejected, failed or timed-out one publishes nothing (the
 filter keeps its model) and says so on ``/diagnostics``. Parameters: the
 ``lever_arm_learning`` block of the scenario (``core.lever_arm.config``) and
 the filter configuration (``filter.*``, as the fusion node's).
@@ -27,6 +28,7 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from hyper_nav_filter import conversions
 from hyper_nav_filter.core.config import ALL_PARAMS, FilterConfig
+from hyper_nav_filter.clock_gate import ClockAllowance
 from hyper_nav_filter.ros_util import assign_fields, declare_params, diagnostic_array, publisher_qos, run_node
 
 from .. import lever_arm_conversions as lac
@@ -50,10 +52,15 @@ class LeverArmLearningNode(Node):
         qos = publisher_qos(self.p.qos_depth)
         self.pub_update = self.create_publisher(ModelUpdate, "nav/model_update", publisher_qos(10))
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
-        self.create_subscription(Imu, "imu/data_raw", self._timed(self._on_imu), qos)
-        self.create_subscription(NavSatFix, "gnss/fix", self._timed(self._on_fix), qos)
-        self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._timed(self._on_vel), qos)
-        self.create_subscription(NavStateMsg, "nav/state", self._timed(self._on_state), qos)
+        self._qos, self._subs = qos, []
+        # while a job runs, the clock (when the time source waits for this node) stays update_lead_s short of
+        # its update's epoch, trigger + update_delay_s: the update is stamped there whatever the job's wall
+        # time, and reaches the filter before that epoch is released
+        self.allowance = ClockAllowance(self, source=lambda: float("inf") if self._job is None else
+                                        self._job["t_trigger"] + self.p.update_delay_s - self.p.update_lead_s)
+        # inputs only once the worker process runs (spawned, numeric stack imported, networks compiled):
+        # the sensors wait for this node's subscriptions, so the flight starts when it can re-estimate
+        self._wait_timer = self.create_timer(0.1, self._start_when_ready)
         self.create_timer(0.1, self._timed(self._poll_worker))
         self.create_timer(self.p.diagnostics_period_s, self._publish_diagnostics)
         self.counts = {k: 0 for k in ("imu", "gnss_fix", "gnss_vel", "nav_state", "rejected_imu_nan",
@@ -67,6 +74,18 @@ class LeverArmLearningNode(Node):
         self._last_ok = True
         # callback wall time (s): {"idle": [n, sum, max], "busy": [...]} (busy = a job is running)
         self.cb_time = {"idle": [0, 0.0, 0.0], "busy": [0, 0.0, 0.0]}
+
+    def _start_when_ready(self):
+        if not self.worker.ready:
+            self.worker.poll()                       # takes the worker's "ready" (no job runs yet)
+            return
+        self._wait_timer.cancel()
+        qos = self._qos
+        self._subs = [self.create_subscription(Imu, "imu/data_raw", self._timed(self._on_imu), qos),
+                      self.create_subscription(NavSatFix, "gnss/fix", self._timed(self._on_fix), qos),
+                      self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._timed(self._on_vel), qos),
+                      self.create_subscription(NavStateMsg, "nav/state", self._timed(self._on_state), qos)]
+        self.get_logger().info("worker ready; subscribed to imu/data_raw, gnss/fix, gnss/vel, nav/state")
 
     # ---- callbacks -------------------------------------------------------------------
     def _timed(self, fn):
@@ -155,7 +174,9 @@ class LeverArmLearningNode(Node):
             self._last, self._last_ok = f"rejected ({out.value.reason}); {keep}", out.value.reason.startswith("no ")
         else:
             r = out.value
-            t_apply = (self._imu_t if self._imu_t is not None else job["t_trigger"]) + self.p.update_lead_s
+            # deterministic (trigger + update_delay_s) unless the job ended after it in sim time
+            t_apply = max(job["t_trigger"] + self.p.update_delay_s,
+                          (self._imu_t if self._imu_t is not None else job["t_trigger"]) + self.p.update_lead_s)
             m = ModelUpdate()
             assign_fields(m, lac.model_update_fields(t_apply, r.freqs_radps, r.sigma_radps, self.get_name(), r.note()))
             self.pub_update.publish(m)

@@ -22,6 +22,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, NavSatFix
 
+from hyper_nav_filter.clock_gate import ClockAllowance
 from hyper_nav_filter.ros_util import all_matched, diagnostic_array, latched_qos, publisher_qos, run_node
 
 from .. import conversions
@@ -39,6 +40,7 @@ class VirtualGnssNode(Node):
         self.pub = self.create_publisher(GnssMeasurements, self.p.config.topic, publisher_qos(self.p.qos_depth))
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
         self.published = 0
+        self.allowance = ClockAllowance(self, source=self._allowance)
         self._subs = []
         self._wait = self.create_timer(0.05, self._start_when_ready)
         self.create_timer(1.0, self.publish_diagnostics)
@@ -61,6 +63,11 @@ class VirtualGnssNode(Node):
         else:
             self._subs.append(self.create_subscription(NavSatFix, "gnss/fix", inp.on_fix, qos))
         self.get_logger().info("subscribed to " + ", ".join(s.topic_name for s in self._subs))
+
+    def _allowance(self) -> float:
+        """The clock may not pass the oldest waiting receiver epoch + clock.deadline_s."""
+        t = self.input.core.pending_t_s
+        return float("inf") if t is None else t + self.p.clock_deadline_s
 
     def _warn(self, reason):
         if reason:

@@ -92,9 +92,12 @@ def test_a_timed_out_reestimation_keeps_the_model_and_says_so():
         ex = SingleThreadedExecutor(context=ctx)
         ex.add_node(node)
         ex.add_node(feeder)
-        t_end = time.monotonic() + 10.0
+        # the node subscribes once its worker process runs (a loaded machine: up to a minute or more);
+        # these bounds only guard against a hang
+        t_end = time.monotonic() + 300.0
         while any(p.get_subscription_count() < 1 for p in pubs.values()) and time.monotonic() < t_end:
             ex.spin_once(timeout_sec=0.05)
+        assert all(p.get_subscription_count() == 1 for p in pubs.values())
         bad = NavStateMsg()
         assign_fields(bad, {"lat_rad": float("nan")})
         pubs["state"].publish(bad)
@@ -105,14 +108,14 @@ def test_a_timed_out_reestimation_keeps_the_model_and_says_so():
         def last():
             st = [s for a in got["diag"] for s in a.status if s.name == "hyper_nav_aiding: lever_arm_learning"]
             return (st[-1], {kv.key: kv.value for kv in st[-1].values}) if st else (None, {})
-        t_end = time.monotonic() + 60.0
+        t_end = time.monotonic() + 300.0
         while time.monotonic() < t_end:
             ex.spin_once(timeout_sec=0.05)
             st, v = last()
             if v.get("jobs_rejected") == "1" or v.get("jobs_timed_out") == "1":
                 break
         n_imu = len([m for m in msgs if m[1] == "imu"])
-        t_end = time.monotonic() + 30.0           # let the node take the rest of the stream
+        t_end = time.monotonic() + 300.0          # let the node take the rest of the stream
         while last()[1].get("imu") != str(n_imu) and time.monotonic() < t_end:
             ex.spin_once(timeout_sec=0.05)
         st, v = last()

@@ -34,6 +34,7 @@ from ..core.fast.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
+from ..clock_gate import ClockAllowance
 from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
@@ -70,6 +71,9 @@ NODE_PARAMS = (
              "reported (WARN)"),
     ParamSpec("publish_final_solutions", BOOL, True, "release and publish the last output_delay_s of solutions "
               "at shutdown"),
+    positive("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the newest "
+             "IMU epoch processed (/graph/allowance, hyper_nav_filter.clock_gate; waited for when the time source "
+             "lists this node)"),
 )
 _OUTPUTS = ("nav/state", "nav/odom", "nav/fix")
 
@@ -110,6 +114,8 @@ class FusionNode(Node):
         # inputs received behind the IMU (replay_order): transient local, so a late-joining recorder gets them
         self.pub_late = self.create_publisher(LateInput, LATE_INPUTS_TOPIC, latched_qos(p["qos.depth"]))
         self.late = LateInputTracker()
+        self.allowance = ClockAllowance(self)
+        self.allowance.set(self.engine.t_latest_s + p["clock.lead_s"])
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
         if self.pub_tf is not None:
@@ -175,6 +181,7 @@ class FusionNode(Node):
             self.get_logger().warning(f"{src.id}: rejected {role} message: {reason}", throttle_duration_sec=5.0)
         if src.drives_time and reason is None:
             self.late.imu_accepted(t_ns)
+            self.allowance.set(self.engine.t_latest_s + self.p["clock.lead_s"])
         if report is not None:
             self._publish_late(msg, report, reason or ("applied_after_release" if after_release else "applied"))
         self._publish(sols)

@@ -82,6 +82,9 @@ SCHEMA = {
     # sim-time step grows to real_time_factor / clock_max_wall_hz (every node takes
     # each /clock in Python; 1000 per second into 7 nodes is a core of 2)
     "graph.clock_max_wall_hz": (NUM, False, 100.0),
+    # the clock waits for the nodes' allowances (hyper_nav_filter.clock_gate): a loaded machine slows the
+    # flight down instead of losing or delaying data; false = paced by the wall clock alone
+    "graph.clock_gate": (BOOL, False, True),
     "graph.truth_rate_hz": (NUM, False, 50.0),
     "graph.qos_depth": (INT, False, 2000),
     # wall-clock period of every node's /diagnostics status (its heartbeat)

@@ -47,6 +47,10 @@ TRUTH = (
     ParamSpec("clock_nodes", STRS, (), "nodes whose /clock subscription is awaited, by name"),
     ParamSpec("min_subscribers", INT, 0, "subscriptions truth/state waits for", lo=0),
     ParamSpec("wait_topics", STRS, (), "user topics whose subscribers the time source waits for"),
+    ParamSpec("allowance_nodes", STRS, (), "nodes whose /graph/allowance the clock waits for (by name; "
+              "hyper_nav_filter.clock_gate): the simulation slows down instead of losing or delaying data"),
+    ParamSpec("allowance_timeout_s", FLOAT, 10.0, "a waited-for node silent this long (wall s) is no longer "
+              "waited for", lo=0.0, lo_open=True),
     ParamSpec("tail_s", FLOAT, 1.0, "sim time flown past duration_s so that late releases go out (s)", lo=0.0),
     ParamSpec("frames.enu", STR, "enu", "frame_id of the ENU (map) frame"),
     ParamSpec("frames.body", STR, "base_link", "frame_id of the body frame"),
@@ -71,6 +75,8 @@ MONITOR = (
 
 RECORDER = (
     ParamSpec("output", STR, "", "bag directory (required)"),
+    ParamSpec("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the newest "
+              "/clock recorded (/graph/allowance, hyper_nav_filter.clock_gate)", lo=0.0, lo_open=True),
     ParamSpec("topics", STRS, (), "topics to record (empty: every topic)"),
     ParamSpec("discovery_period_s", FLOAT, 0.2, "wall period of the topic discovery (s)", lo=0.0, lo_open=True),
     ParamSpec("drain_quiet_s", FLOAT, 0.5, "at shutdown, stop once nothing arrived for this long (s)", lo=0.0),
@@ -86,6 +92,10 @@ PLAYER = (
     ParamSpec("wait_for_subscribers", INT, 0, "subscriptions every replayed topic waits for", lo=0),
     ParamSpec("wait_topics", STRS, (), "topics with their own subscriber count (wait_counts)"),
     ParamSpec("wait_timeout_s", FLOAT, 30.0, "wall time to wait for the subscribers (s)", lo=0.0),
+    ParamSpec("allowance_nodes", STRS, (), "nodes whose /graph/allowance the clock waits for (by name; "
+              "hyper_nav_filter.clock_gate): the simulation slows down instead of losing or delaying data"),
+    ParamSpec("allowance_timeout_s", FLOAT, 10.0, "a waited-for node silent this long (wall s) is no longer "
+              "waited for", lo=0.0, lo_open=True),
     ParamSpec("topics", STRS, (), "topics to replay (empty: every readable topic)"),
     ParamSpec("qos_depth", INT, 2000, "publisher history depth", lo=1),
     DIAG_PERIOD,

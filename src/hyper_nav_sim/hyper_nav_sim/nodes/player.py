@@ -45,6 +45,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 
+from hyper_nav_filter.clock_gate import AllowanceGate
 from hyper_nav_filter.ros_util import declare_params
 from hyper_nav_sim.core.bag import playback_qos, read_bag
 from hyper_nav_sim.nodes.params import PLAYER
@@ -96,6 +97,9 @@ class Player(Node):
         self._waiting = None       # (log time s of the next record, wall time s it is due)
         self.status = NodeStatus(self, "hyper_nav_sim: player")
         self._next_status = 0.0
+        # the replayed clock never passes what the waited-for nodes allow (hyper_nav_filter.clock_gate)
+        self.gate = AllowanceGate(self, p["allowance_nodes"], p["allowance_timeout_s"])
+        self._limit_s = float("-inf")
 
     def needs_waiting(self) -> bool:
         return self.min_subscribers > 0 or any(n > 0 for n in self.waits.values())
@@ -138,6 +142,7 @@ class Player(Node):
             self.now_s = max(self.now_s or 0.0, t_next - (due - now) * self.rate)
         if self.now_s is not None:
             values["sim_time_s"] = f"{self.now_s:.3f}"
+        values["clock_held_s"] = f"{self.gate.held_s:.2f}"
         values["truncated"] = "yes" if truncated else "no"
         if truncated:
             values["bag_error"] = self.reader.error
@@ -157,6 +162,24 @@ class Player(Node):
                     self.get_logger().warning(f"{pub.topic_name}: not all messages acknowledged")
                     break
 
+    def wait_for_graph(self, t_s: float) -> float:
+        """Hold until the waited-for nodes allow sim time ``t_s`` (the player
+        does not spin: it takes their allowances here). Returns the wall
+        seconds held, by which the replay's pace is shifted."""
+        if not self.gate.expected or t_s <= self._limit_s + 1e-9:
+            return 0.0
+        t_start = time.monotonic()
+        while rclpy.ok(context=self.context):
+            rclpy.spin_once(self, timeout_sec=0.0)
+            self._limit_s = self.gate.limit_s()
+            if t_s <= self._limit_s + 1e-9:
+                break
+            self.publish_status()
+            rclpy.spin_once(self, timeout_sec=0.02)
+        held = time.monotonic() - t_start
+        self.gate.held_s += held if held > 0.03 else 0.0
+        return held
+
     def play(self) -> None:
         """Publish every readable message, paced by log time / rate."""
         t0, wall0 = None, time.monotonic()
@@ -167,6 +190,7 @@ class Player(Node):
             if record.topic not in self.pubs:
                 continue
             t0 = record.t_ns if t0 is None else t0
+            wall0 += self.wait_for_graph(record.t_ns * 1e-9)
             if self.rate > 0:
                 self.sleep_until(wall0 + (record.t_ns - t0) * 1e-9 / self.rate, record.t_ns * 1e-9)
             if self.clock_pub is not None:

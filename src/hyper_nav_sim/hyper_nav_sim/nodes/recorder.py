@@ -41,12 +41,14 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from hyper_nav_filter.clock_gate import TOPIC as ALLOWANCE_TOPIC
+from hyper_nav_filter.clock_gate import ClockAllowance
 from hyper_nav_filter.ros_util import declare_params
 from hyper_nav_sim.core.bag import INFINITE, BagWriter, playback_qos, qos_profile, typestore
 from hyper_nav_sim.nodes.params import RECORDER
 from hyper_nav_sim.nodes.status import NodeStatus
 
-NEVER_RECORD = frozenset({"/rosout", "/parameter_events"})
+NEVER_RECORD = frozenset({"/rosout", "/parameter_events", ALLOWANCE_TOPIC})
 
 
 def message_class(msgtype: str):
@@ -72,6 +74,10 @@ class Recorder(Node):
         self.bag = BagWriter(output)
         self.subs = {}  # topic -> subscription (None: not recordable)
         self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
+        # the clock waits for this recorder: its own sim time (it takes /clock in the same executor as the
+        # messages, so a recorder behind its queues holds the clock) + clock.lead_s
+        self.allowance = ClockAllowance(self, source=lambda: self.get_clock().now().nanoseconds * 1e-9 +
+                                        self.p["clock.lead_s"])
         self.status = NodeStatus(self, "hyper_nav_sim: recorder")
         # wall-clock timers: with use_sim_time the node clock stands still until /clock starts
         wall = Clock(clock_type=ClockType.STEADY_TIME)

@@ -11,6 +11,11 @@ matched subscriptions and ``truth/state`` has ``min_subscribers``. Publishes
 the exact truth (hyper_nav_msgs/NavState, mode TRUTH) at graph.truth_rate_hz,
 and exits ``tail_s`` of sim time after the scenario ends.
 
+The clock never passes what the nodes in ``allowance_nodes`` allow
+(``hyper_nav_filter.clock_gate``: on a loaded machine the flight slows down
+in wall time instead of losing or delaying data; ``clock_held_s`` on
+/diagnostics says how long it waited).
+
 Waiting for ``wait_topics`` as well: topics (e.g. ``nav/odom``) whose
 subscriber count must reach ``wait_counts`` before the clock starts, so a
 test's or user's own subscriber sees the first message (``Graph(...,
@@ -29,6 +34,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
+from hyper_nav_filter.clock_gate import AllowanceGate
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
 from hyper_nav_filter.ros_util import all_matched, declare_params, publisher_qos, run_node
@@ -75,6 +81,7 @@ class TruthNode(Node):
         self.counts = {"published /clock": 0, "published truth/state": 0}
         self.t_wall0 = None
         self.done = False
+        self.gate = AllowanceGate(self, p["allowance_nodes"], p["allowance_timeout_s"])
         self.timer = self.create_timer(0.05, self._wait)
 
     def _wait(self):
@@ -89,7 +96,14 @@ class TruthNode(Node):
         self.timer = self.create_timer(min(0.01, self.step_s / self.rtf), self._tick)
 
     def _tick(self):
-        target = min(self.n_steps, int((time.monotonic() - self.t_wall0) * self.rtf / self.step_s))
+        # paced at real_time_factor, and never past what the slowest waited-for node allows
+        paced = int((time.monotonic() - self.t_wall0) * self.rtf / self.step_s)
+        limit = self.gate.limit_s()
+        allowed = paced if limit == float("inf") else int(np.floor(limit / self.step_s + 1e-9))
+        if allowed < paced:
+            self.t_wall0 += self.timer.timer_period_ns * 1e-9          # held: the pace resumes from here
+            self.gate.held_s += self.timer.timer_period_ns * 1e-9
+        target = min(self.n_steps, paced, allowed)
         while self.k <= target and not self.done:
             t = self.k * self.step_s
             self._publish_truth_until(t)
@@ -135,7 +149,8 @@ class TruthNode(Node):
         self._diag()
 
     def _diag(self):
-        values = dict(self.counts, sim_time_s=f"{max(self.k - 1, 0) * self.step_s:.3f}")
+        values = dict(self.counts, sim_time_s=f"{max(self.k - 1, 0) * self.step_s:.3f}",
+                      clock_held_s=f"{self.gate.held_s:.2f}", clock_not_waited_for=",".join(sorted(self.gate.dropped)))
         self.status.publish("ok", "done" if self.done else ("running" if self.t_wall0 else "waiting for subscribers"),
                             values, finished=self.done)
 

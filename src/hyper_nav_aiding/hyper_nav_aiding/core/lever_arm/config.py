@@ -37,7 +37,11 @@ PARAMS = (
               lo=0, hi=19),
     nonneg("min_improvement_m", FLOAT, 0.0, "publish only if the reward improves by more than this (m)"),
     ParamSpec("seed", INT, 0, "seed of the agent / identifier", lo=0, hi=2**31 - 1),
-    ParamSpec("update_lead_s", FLOAT, 0.1, "model update epoch = newest IMU stamp seen + this (s)", lo=0.0, hi=10.0),
+    ParamSpec("update_delay_s", FLOAT, 5.0, "model update epoch = trigger epoch + this (s), so it does not depend "
+              "on how long the job took in wall time, unless the job ends later (then: newest IMU + update_lead_s)",
+              lo=0.0, hi=600.0),
+    ParamSpec("update_lead_s", FLOAT, 0.1, "model update epoch of a job ending after trigger + update_delay_s: "
+              "newest IMU stamp seen + this (s)", lo=0.0, hi=10.0),
     ParamSpec("gnss_hold_s", FLOAT, 2.0, "a fused state is taken once a GNSS fix stamped at or after it has come, "
               "or the IMU is this far past it (a GNSS outage): the residuals and windows do not depend on the "
               "order the topics arrive in (s)", lo=0.0, hi=60.0),
@@ -66,6 +70,7 @@ class LeverArmLearningConfig:
     state_period_s: float
     reestimation: ReestimationConfig
     update_lead_s: float
+    update_delay_s: float
     gnss_hold_s: float
     worker_grace_s: float
     worker_nice: int
@@ -89,7 +94,7 @@ class LeverArmLearningConfig:
                                     v["seed"], v["timeout_s"])
         except ValueError as exc:
             raise ConfigError(f"{prefix}{exc}") from None
-        return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["gnss_hold_s"], v["worker_grace_s"],
+        return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["update_delay_s"], v["gnss_hold_s"], v["worker_grace_s"],
                    v["worker_nice"], v["diagnostics_period_s"], v["qos.depth"])
 
     @classmethod

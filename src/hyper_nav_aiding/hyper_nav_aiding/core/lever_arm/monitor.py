@@ -29,7 +29,7 @@ class ReestimationMonitor:
         """``monitor_from_s``: the trigger sees residuals from this epoch on."""
         self.cfg = cfg
         self.monitor_from_s = monitor_from_s
-        self.buffer = WindowBuffer(cfg.window_s + 2.0 * cfg.state_period_s + 5.0)
+        self.buffer = WindowBuffer(cfg.window_s + 2.0 * cfg.state_period_s + 1.0)
         self.trigger = ResidualTrigger(cfg.trigger)
         self.counters: Counter = Counter()
         self._fixes: dict[int, object] = {}
@@ -78,6 +78,7 @@ class ReestimationMonitor:
         return None
 
     def _take_state(self, state, P, busy: bool) -> DataWindow | None:
+        self.buffer.advance(state.t_s)            # keep what the windows ending here need, by stamps
         if state.t_s >= self._next_state_t - 1e-9:
             self.buffer.add_state(state, P)
             self._next_state_t = state.t_s + self.cfg.state_period_s

@@ -70,6 +70,7 @@ class WindowBuffer:
         self._imu: deque = deque()          # (t, dtheta, dvel)
         self._gnss: deque = deque()         # measurement objects (t_s)
         self._states: deque = deque()       # (t, NavState, P)
+        self._t_ref = None                  # trim reference (advance); None: the newest IMU sample
 
     def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps) -> bool:
         """Append an IMU sample; False (ignored) when not after the last one."""
@@ -99,8 +100,16 @@ class WindowBuffer:
     def t_latest_s(self) -> float:
         return self._imu[-1][0] if self._imu else -np.inf
 
+    def advance(self, t_s: float) -> None:
+        """Trim relative to ``t_s`` (the consumer's own time, e.g. the newest
+        fused state it took) instead of the newest IMU sample: what is kept
+        then depends on the stamps only, not on how far the IMU stream runs
+        ahead of the fused states (issue 22)."""
+        self._t_ref = float(t_s)
+        self._trim()
+
     def _trim(self) -> None:
-        t_min = self.t_latest_s - self.capacity_s
+        t_min = (self.t_latest_s if self._t_ref is None else self._t_ref) - self.capacity_s
         for q, key in ((self._imu, lambda x: x[0]), (self._gnss, lambda m: m.t_s), (self._states, lambda x: x[0])):
             while q and key(q[0]) < t_min:
                 q.popleft()

@@ -1,6 +1,8 @@
 """The re-estimation worker: a persistent child process (``spawn``) that runs
 ``reestimate`` jobs off the node's callback thread. The node submits a job and
-polls; a job that outlives its wall-time limit (plus ``grace_s``) is abandoned:
+polls; a job that outlives its wall-time limit (plus ``grace_s``, counted from
+when the process is ready: starting it and importing the numeric stack can
+take a minute on a loaded machine) is abandoned:
 the process is terminated and a fresh one started, and the poll reports the
 timeout, so the caller keeps the model in force. The process imports the
 numeric stack and compiles the DDPG networks once at start (``warm_up``)."""
@@ -90,6 +92,8 @@ class ReestimationWorker:
                 break
             if status == "ready":
                 self.ready = True
+                if self._running is not None:       # the limit counts the job, not the process start
+                    self._running["t0"] = time.monotonic()
                 continue
             if self._running is not None and job_id == self._running["id"]:
                 wall = time.monotonic() - self._running["t0"]
@@ -97,7 +101,8 @@ class ReestimationWorker:
                 return JobOutcome(job_id, status, value, wall)
         if self._running is not None:
             elapsed = time.monotonic() - self._running["t0"]
-            if elapsed > self._running["limit"] + self.grace_s or not self._proc.is_alive():
+            late = self.ready and elapsed > self._running["limit"] + self.grace_s
+            if late or not self._proc.is_alive():
                 job_id = self._running["id"]
                 self._running = None
                 status = "timeout" if self._proc.is_alive() else "error"

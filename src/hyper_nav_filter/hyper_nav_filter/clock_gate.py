@@ -1,0 +1,110 @@
+"""The simulated clock waits for the graph (lockstep under load).
+
+A graph paced only by the wall clock loses data or delivers it late when the
+machine is loaded: a slow subscriber falls behind its publishers' queues, a
+slow aiding node's output reaches the filter after its epoch was released.
+Here every node whose lag matters publishes an *allowance* on
+``/graph/allowance`` (``diagnostic_msgs/KeyValue``: key = node name, value =
+the latest sim time, s, the clock may reach while this node keeps up; "inf"
+when it is not behind), and the time source (truth node or player) never
+advances the clock past the smallest allowance of the nodes it was told to
+wait for (``AllowanceGate``). So on a loaded machine the simulation runs
+slower in wall time, and what it computes is the same.
+
+What the nodes allow (README, Timing):
+
+* fusion: its newest IMU epoch + ``clock.lead_s`` (it never lags further);
+* recorder: the newest ``/clock`` it recorded + ``clock.lead_s``;
+* aiding nodes with an output pending for an epoch t (a geomagnetic fix, a
+  virtual GNSS epoch, a learned model update stamped t): t +
+  ``clock.deadline_s`` (the fusion node's ``output_delay_s`` minus a margin),
+  so the output reaches the filter before the filter releases t.
+
+A node that stops reporting (dead, hung) for ``timeout_s`` of wall time is
+no longer waited for (the liveness monitor reports it), so the clock never
+stalls forever.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+from diagnostic_msgs.msg import KeyValue
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+TOPIC = "/graph/allowance"
+_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+
+
+class ClockAllowance:
+    """A node's side: ``set(allow_s)`` whenever it changes; it is published
+    at once when it shrinks or has grown by ``step_s``, and on a wall-clock
+    timer (``period_s``) always, which also tells the gate the node is alive."""
+
+    def __init__(self, node, period_s: float = 0.05, step_s: float = 0.1, source=None):
+        """``source``: a callable giving the allowance, evaluated on the timer
+        (instead of ``set``)."""
+        self.node = node
+        self.pub = node.create_publisher(KeyValue, TOPIC, _QOS)
+        self.allow_s = math.inf
+        self.step_s = float(step_s)
+        self.source = source
+        self._sent = None
+        node.create_timer(period_s, self._tick)
+
+    def _tick(self) -> None:
+        if self.source is not None:
+            self.allow_s = float(self.source())
+        self._publish()
+
+    def set(self, allow_s: float) -> None:
+        allow_s = float(allow_s)
+        sent = self._sent
+        self.allow_s = allow_s
+        if sent is None or allow_s < sent or (allow_s >= sent + self.step_s):
+            self._publish()
+
+    def _publish(self) -> None:
+        self.pub.publish(KeyValue(key=self.node.get_name(), value=repr(self.allow_s)))
+        self._sent = self.allow_s
+
+
+class AllowanceGate:
+    """The time source's side: the clock limit from the allowances of the
+    ``expected`` nodes (names). A node not heard from yet, or silent for
+    ``timeout_s`` of wall time, counts after ``timeout_s`` from the gate's
+    start as not waited for (``dropped``)."""
+
+    def __init__(self, node, expected, timeout_s: float = 10.0):
+        self.expected = set(expected)
+        self.timeout_s = float(timeout_s)
+        self.t0 = time.monotonic()
+        self.allow: dict[str, tuple[float, float]] = {}    # name -> (allow_s, wall time heard)
+        self.held_s = 0.0                                  # wall time the clock waited for the graph
+        self.dropped: set[str] = set()
+        if self.expected:
+            node.create_subscription(KeyValue, TOPIC, self._on, _QOS)
+
+    def _on(self, msg) -> None:
+        if msg.key in self.expected:
+            try:
+                self.allow[msg.key] = (float(msg.value), time.monotonic())
+            except ValueError:
+                pass
+
+    def limit_s(self) -> float:
+        """The latest sim time the clock may reach now."""
+        now = time.monotonic()
+        lim = math.inf
+        for name in self.expected:
+            a = self.allow.get(name)
+            if a is None:
+                if now - self.t0 < self.timeout_s:
+                    lim = min(lim, 0.0)
+                else:
+                    self.dropped.add(name)
+            elif now - a[1] > self.timeout_s:
+                self.dropped.add(name)
+            else:
+                lim = min(lim, a[0])
+        return lim
