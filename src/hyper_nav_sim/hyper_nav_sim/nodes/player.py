@@ -169,10 +169,19 @@ class Player(Node):
         if not self.gate.expected or t_s <= self._limit_s + 1e-9:
             return 0.0
         t_start = time.monotonic()
+        changed, last = t_start, None
         while rclpy.ok(context=self.context):
             rclpy.spin_once(self, timeout_sec=0.0)
             self._limit_s = self.gate.limit_s()
             if t_s <= self._limit_s + 1e-9:
+                break
+            if self._limit_s != last:
+                changed, last = time.monotonic(), self._limit_s
+            elif time.monotonic() - changed > self.gate.timeout_s:
+                # nothing moves the allowance any more (e.g. records past the bag's last IMU sample)
+                self.get_logger().warning(f"clock gate: allowance {last:.3f} s unchanged for "
+                                          f"{self.gate.timeout_s:g} s at {t_s:.3f} s; no longer waiting")
+                self.gate.expected = set()
                 break
             self.publish_status()
             rclpy.spin_once(self, timeout_sec=0.02)

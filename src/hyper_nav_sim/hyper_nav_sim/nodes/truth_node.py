@@ -99,6 +99,8 @@ class TruthNode(Node):
         # paced at real_time_factor, and never past what the slowest waited-for node allows
         paced = int((time.monotonic() - self.t_wall0) * self.rtf / self.step_s)
         limit = self.gate.limit_s()
+        if self.k * self.step_s > self.scenario["duration_s"] + 1e-9:
+            limit = float("inf")          # the tail: no sensor data any more, nothing to wait for
         allowed = paced if limit == float("inf") else int(np.floor(limit / self.step_s + 1e-9))
         if allowed < paced:
             self.t_wall0 += self.timer.timer_period_ns * 1e-9          # held: the pace resumes from here
