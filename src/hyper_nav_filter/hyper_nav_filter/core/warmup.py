@@ -1,20 +1,23 @@
-"""Compile (or load from numba's on-disk cache) every fast-path kernel once:
-``make setup`` runs it after the build so that no node compiles on its
-first message, and the fusion node calls it before it subscribes
-(``python -m hyper_nav_filter.core.fast.warmup``)."""
+"""Compile (or load from numba's on-disk cache) every fast-path kernel
+(``core/fast``) once, by running a small filter through them: ``make setup``
+runs it after the build so that no node compiles on its first message, and
+the fusion node calls it before it subscribes
+(``python -m hyper_nav_filter.core.warmup``). It sits beside the filter it
+drives, above ``fast/``, whose kernels the filter's modules import."""
 from __future__ import annotations
 
 import time
 
 import numpy as np
 
+from .config import FilterConfig
+from .eskf import ErrorStateKF
+from .measurements import GnssPosition, GnssVelocity, ModelContext
+from .nav_state import ImuSample, NavState
+
 
 def warm_up() -> float:
     """Run each kernel once on a small filter; returns the seconds it took."""
-    from ..config import FilterConfig
-    from ..eskf import ErrorStateKF
-    from ..measurements import GnssPosition, GnssVelocity, ModelContext
-    from ..nav_state import ImuSample, NavState
     t0 = time.perf_counter()
     nav = NavState(0.0, 0.5, 2.0, 1000.0, np.array([100.0, 0.0, 0.0]), np.eye(3))
     for frame in ("ENU", "LCI"):

@@ -29,7 +29,7 @@ from sensor_msgs.msg import NavSatFix
 from tf2_msgs.msg import TFMessage
 
 from ..core.config import ALL_PARAMS, FilterConfig
-from ..core.fast.warmup import warm_up
+from ..core.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive

@@ -1,4 +1,4 @@
-"""PNGs of the seed 000 RL-DLAC reproduction (``reproduce_seed000``)."""
+"""PNGs of the seed 000 RL-DLAC reproduction (``seed000.reproduce``)."""
 from __future__ import annotations
 
 import pathlib

@@ -1,7 +1,7 @@
 """Seed 000 reproduction (Yang et al., IEEE Access 2022, RL-DLAC): Table 5 and
 the navigation errors of Figs. 10-11, with what the data can tell first.
 
-    ros2run hyper_nav_aiding reproduce_seed000 [--short] [--seeds 10] [--out DIR]
+    ros2run hyper_nav_repro repro_seed000 [--short] [--seeds 10] [--out DIR]
 
 1. Bound: the Cramer-Rao bound of the three natural frequencies from one
    re-estimation window (``core.lever_arm.crb``, on the mean of the data) for
@@ -39,14 +39,14 @@ import numpy as np
 from hyper_nav_filter.core.elastic_lever_arm import TABLE2_FREQ_RADPS, TABLE4_FREQ_RADPS
 from hyper_nav_sim.core.scenario import load_scenario
 
-from .core.lever_arm import identifiers
-from .core.lever_arm.config import LeverArmLearningConfig
-from .core.lever_arm.crb import fisher_information
-from .core.lever_arm.env import LeverArmFrequencyEnv, position_error_m
-from .core.lever_arm.reestimate import reestimate
-from .core.lever_arm.replay import replay
-from .lever_arm_study import navigation_errors
-from .sim_windows import SimulatedFlight, model_consistent_window, triggered_window, with_gnss_sigmas
+from hyper_nav_aiding.core.lever_arm import identifiers
+from hyper_nav_aiding.core.lever_arm.config import LeverArmLearningConfig
+from hyper_nav_aiding.core.lever_arm.crb import fisher_information
+from hyper_nav_aiding.core.lever_arm.env import LeverArmFrequencyEnv, position_error_m
+from hyper_nav_aiding.core.lever_arm.reestimate import reestimate
+from hyper_nav_aiding.core.lever_arm.replay import replay
+from .study import navigation_errors
+from hyper_nav_aiding.sim_windows import SimulatedFlight, model_consistent_window, triggered_window, with_gnss_sigmas
 
 PAPER = {"initial_radps": list(TABLE2_FREQ_RADPS), "true_radps": list(TABLE4_FREQ_RADPS),
          "learned_radps": [20.1389, 55.1664, 113.5816], "error_pct": [0.13, 0.35, 0.46], "mean_error_pct": 0.31}
@@ -392,7 +392,7 @@ def main(argv=None) -> int:
     result["wall_s"] = time.perf_counter() - t_start
     result = _public(result)
     json_path.write_text(json.dumps(result, indent=1))
-    from .lever_arm_plots import write_plots
+    from .plots import write_plots
     pngs = write_plots(result, out_dir)
     log(f"\nwrote {out_dir / 'seed000_rl_dlac.json'} and {', '.join(p.name for p in pngs)} "
         f"({result['wall_s']:.0f} s)")

@@ -1,5 +1,5 @@
 """Navigation errors over the seed 000 flight with three lever-arm treatments
-(seed 000 Figs. 10-11), for ``reproduce_seed000``:
+(seed 000 Figs. 10-11), for ``seed000.reproduce``:
 
 * KF-FLAC: the traditional fixed lever arm: the rigid arm r0 compensated, no
   elastic modes (mode shapes at the IMU set to zero, so r = r0 and the modal
@@ -20,9 +20,9 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.model_update import ModelUpdate
 from hyper_nav_sim.offline_fly import per_axis_errors
 
-from .core.lever_arm.replay import FREQ_FIELD
-from .lever_arm_conversions import MODEL_NAME
-from .sim_windows import SimulatedFlight
+from hyper_nav_aiding.core.lever_arm.replay import FREQ_FIELD
+from hyper_nav_aiding.lever_arm_conversions import MODEL_NAME
+from hyper_nav_aiding.sim_windows import SimulatedFlight
 
 
 def fly(flight: SimulatedFlight, cfg, updates=(), duration_s: float | None = None, release_every: int = 10):

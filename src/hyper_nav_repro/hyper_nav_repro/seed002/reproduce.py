@@ -1,7 +1,7 @@
-"""repro_seed002: seed 002 Table 2 (and Figs. 6-8) over Monte Carlo radar noise.
+"""Seed 002 reproduction (repro_seed002): seed 002 Table 2 (and Figs. 6-8) over Monte Carlo radar noise.
 
-    ros2run hyper_nav_sim repro_seed002 [--runs 20] [--out results/seed002]   # = make repro-seed002
-    ros2run hyper_nav_sim repro_seed002 --short                              # a few seconds
+    ros2run hyper_nav_repro repro_seed002 [--runs 20] [--out results/seed002]   # = make repro-seed002
+    ros2run hyper_nav_repro repro_seed002 --short                              # a few seconds
 
 For scenarios 1-3 (``seed002_s1..s3``) every tracker (EKF, AEKF, L-EKF with
 the shipped parameters, IMM) filters the same radar noise draws; the RMSE of
@@ -32,15 +32,17 @@ import numpy as np
 
 from hyper_nav_filter.core.tracking import glide_model as gm
 from hyper_nav_filter.core.tracking import params_store, pcrb
+from hyper_nav_filter.core.tracking.config import FILTER_TYPES as FILTERS
 from hyper_nav_filter.core.tracking.filters import build_filter, run_batch
 from hyper_nav_filter.core.tracking.tracker import Tracker
 
-from .core.scenario import load_scenario
-from .core.tracking_setup import initial_truth, radar_measurements, scenario_track, tracker_config
+from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.core.tracking_setup import initial_truth, radar_measurements, scenario_track, tracker_config
 
-FILTERS = ("EKF", "AEKF", "LEKF", "IMM")
+from .training_set import EVAL_SCENARIOS
+
 STATES = ("h_m", "theta_rad", "phi_rad", "v_mps", "gamma_rad", "psi_rad")
-SCENARIOS = {1: "seed002_s1", 2: "seed002_s2", 3: "seed002_s3"}
+SCENARIOS = EVAL_SCENARIOS
 # seed 002 Table 2: RMSE h, theta, phi, v, gamma, psi and ms/step
 PAPER = {
     1: {"EKF": [576.8, 6.160e-3, 5.649e-3, 385.90, 6.713e-3, 5.544e-2, 1.24],

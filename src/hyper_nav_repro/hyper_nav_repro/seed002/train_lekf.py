@@ -2,8 +2,8 @@
 (seed 002 section 3.1); writes the parameter set (``.npz`` + ``.json`` with
 the training configuration, data seed, loss history and test loss).
 
-    ros2run hyper_nav_sim train_lekf                       # = make train-lekf
-    ros2run hyper_nav_sim train_lekf --tracks 64 --epochs 2 --out /tmp/lekf_try
+    ros2run hyper_nav_repro train_lekf                       # = make train-lekf
+    ros2run hyper_nav_repro train_lekf --tracks 64 --epochs 2 --out /tmp/lekf_try
 
 The data set (``--tracks`` flights from seed ``--data-seed``) is cached in
 ``build/tracking_data/``; the filter configuration (model, Q, R, nominal
@@ -26,11 +26,11 @@ from hyper_nav_filter.core.tracking import params_store
 from hyper_nav_filter.core.tracking.lekf import Lekf, LekfArch, count_parameters
 from hyper_nav_filter.core.tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
 
-from .core import tracking_data as td
-from .core.scenario import load_scenario
-from .core.tracking_setup import tracker_config
+from . import training_set as td
+from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.core.tracking_setup import tracker_config
 
-REPO = pathlib.Path(__file__).resolve().parents[3]
+REPO = pathlib.Path(__file__).resolve().parents[4]
 DEFAULT_OUT = params_store.TRAINED_DIR / "lekf_seed002"
 
 
@@ -108,7 +108,7 @@ def main(argv=None) -> int:
     print(f"[train_lekf] test WMAE {test:.3f} (EKF, i.e. untrained: {ekf_test:.3f}); training {wall / 60:.1f} min")
     meta = {"training": tcfg.as_dict(), "data": {"tracks": args.tracks, "data_seed": args.data_seed,
                                                   "split": [len(i_tr), len(i_va), len(i_te)], "radar_rate_hz": rate,
-                                                  "generator": "hyper_nav_sim.core.tracking_data.random_flight"},
+                                                  "generator": "hyper_nav_repro.seed002.training_set.random_flight"},
             "tracker_config": cfg.as_parameters(), "scenario": args.scenario, "history": history,
             "test_wmae": test, "test_wmae_ekf": ekf_test, "training_wall_s": wall,
             "best_epoch": int(min(history, key=lambda h: h["val_loss"])["epoch"]),

@@ -10,42 +10,44 @@ sets that come close to the three evaluation scenarios' (same type, load
 within 0.5 g, start within 100 s) are redrawn, and the data seed is not the
 scenarios' seed: the evaluation flights are never trained on.
 
-``truth_track(traj, t)`` gives the filter's state and input along a flight:
-x = [alt, lon, lat, V, gamma, psi, 0] (geodetic, relative to the rotating
-Earth: what the radar measures) and u = [lambda1, lambda2, T_chi] from the
-flown c_l and bank angle (eqs. 14, 17); the T_chi label is half the period of
-a weave/square wave (the time between direction changes), else the nominal
-T_chi.
+Each track is the filter's truth state and input along its flight
+(``hyper_nav_sim.core.tracking_setup.truth_track``).
 """
 from __future__ import annotations
 
+import functools
 import multiprocessing
-from dataclasses import dataclass
 
 import numpy as np
 
 from hyper_nav_filter.core.tracking import glide_model as gm
 
-from .boost_glide import DynamicTrajectory
-from .boost_glide_config import CAV_H, FLIGHTS
+from hyper_nav_sim.core.boost_glide import DynamicTrajectory
+from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.core.tracking_setup import PERIODIC, Track, truth_track
 
-EVAL_FLIGHTS = ("seed002_scenario1", "seed002_scenario2", "seed002_scenario3")
-PERIODIC = ("square_wave", "evasive", "s_turn")
+# seed 002 Table 1's scenarios: the reproduction evaluates them, the training set avoids them
+EVAL_SCENARIOS = {1: "seed002_s1", 2: "seed002_s2", 3: "seed002_s3"}
+VEHICLE_FIELDS = ("mass_kg", "s_ref_m2", "cd0", "k_induced", "cl_alpha_per_rad", "c_l_max")
 LATERAL = ("lateral_ca", "turn_left", "turn_right") + PERIODIC
 MAX_DURATION_S = 1250.0
 
 
-@dataclass
-class Track:
-    t_s: np.ndarray          # (N,) radar epochs
-    x: np.ndarray            # (N, 7) physical truth state
-    u: np.ndarray            # (N, 3) true inputs
-    flight: dict
+@functools.lru_cache(maxsize=None)
+def _eval_flights() -> tuple[dict, ...]:
+    """The ``flight:`` blocks of the evaluation scenarios (``EVAL_SCENARIOS``)."""
+    return tuple(load_scenario(name).data["flight"] for name in EVAL_SCENARIOS.values())
+
+
+def vehicle() -> dict:
+    """The evaluation flights' vehicle (CAV-H: mass, reference area, drag polar, lift limits)."""
+    flight = _eval_flights()[0]
+    return {k: flight[k] for k in VEHICLE_FIELDS}
 
 
 def _close_to_eval(m: dict) -> bool:
-    for name in EVAL_FLIGHTS:
-        for e in FLIGHTS[name]["maneuvers"]:
+    for flight in _eval_flights():
+        for e in flight["maneuvers"]:
             if e["type"] == m["type"] and abs(abs(e["load_g"]) - abs(m["load_g"])) < 0.5 \
                     and abs(e["t_start_s"] - m["t_start_s"]) < 100.0:
                 return True
@@ -76,27 +78,8 @@ def random_flight(rng: np.random.Generator) -> dict:
             continue
         mans.append(m)
         t = m["t_end_s"] + float(rng.uniform(0, 250))
-    return {**CAV_H, "duration_s": MAX_DURATION_S, "end_speed_mps": 2000.0, "start": start,
+    return {**vehicle(), "duration_s": MAX_DURATION_S, "end_speed_mps": 2000.0, "start": start,
             "c_l_program": c_l, "maneuvers": mans}
-
-
-def t_chi_label(t_s, maneuvers, nominal_s: float) -> np.ndarray:
-    out = np.full(np.shape(t_s), float(nominal_s))
-    for m in maneuvers:
-        if m["type"] in PERIODIC:
-            inside = (t_s >= m["t_start_s"]) & (t_s <= m.get("t_end_s", np.inf))
-            out[inside] = 0.5 * m["period_s"]
-    return out
-
-
-def truth_track(traj: DynamicTrajectory, t_s, maneuvers=(), nominal_t_chi_s: float = 100.0):
-    """(x (N, 7), u (N, 3)) along a flight at the epochs t_s (see module doc)."""
-    t_s = np.asarray(t_s, float)
-    f = traj.flight(t_s)
-    Y = traj.state(t_s)
-    x = np.stack([Y[2], Y[1], Y[0], f["V"], f["gamma"], f["psi"], np.zeros_like(t_s)], axis=-1)
-    u = gm.true_inputs(f["c_l"], f["sigma"], t_chi_label(t_s, maneuvers, nominal_t_chi_s))
-    return x, u
 
 
 def fly(flight: dict, rate_hz: float = 1.0, nominal_t_chi_s: float = 100.0) -> Track:

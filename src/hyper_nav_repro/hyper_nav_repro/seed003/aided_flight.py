@@ -22,7 +22,7 @@ fix of t, one IMU interval later), on which errors are evaluated, as the
 PCRB is a posterior bound.
 
 ``decimate`` sums consecutive IMU increments (the exact integral over the
-longer interval); see ``reproduce_seed003`` for the accuracy cost.
+longer interval); see ``seed003.reproduce`` for the accuracy cost.
 """
 from __future__ import annotations
 
@@ -31,12 +31,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.measurements import BaroHeight, HorizontalFix, PositionFix
+from hyper_nav_filter.core.measurements import BaroHeight
+from hyper_nav_sim.core import scoring
 
-from .core.geomag_aiding import GeomagAiding
-from .core.matching import MagSample, NavPoint
+from hyper_nav_aiding.core.geomag_aiding import GeomagAiding
+from hyper_nav_aiding.core.matching import MagSample, NavPoint
+from hyper_nav_aiding.geomag_conversions import fix_measurement
 
 
 @dataclass
@@ -141,26 +142,13 @@ class AidedFlight:
                 mi += 1
 
 
-def fix_measurement(res):
-    """The fusion measurement of a fix, as the fusion node's declared source
-    converts it: horizontal (``horizontal_fix`` -> ``HorizontalFix``, seed 003
-    eqs. 20-26) or, for a 3-D fix, ``position_fix`` -> ``PositionFix`` with
-    the full ENU covariance."""
-    if res.cov_enu_m2 is not None:
-        return PositionFix(res.t_s, res.lat_rad, res.lon_rad, res.alt_m, res.cov_enu_m2)
-    return HorizontalFix(res.t_s, res.lat_rad, res.lon_rad, res.cov_en_m2)
-
-
 def position_errors(solutions: dict, traj, t_s) -> np.ndarray:
     """(N, 3) ENU position errors (estimate - truth at the solution's own
     epoch) of the solutions keyed by whole seconds t_s (NaN where none)."""
     t_s = np.asarray(t_s, float)
     sols = [solutions.get(float(round(t))) for t in t_s]
-    t_sol = np.array([s.t_s if s is not None else t for s, t in zip(sols, t_s)])
-    tr = traj.truth(t_sol)
+    have = np.array([s is not None for s in sols], bool)
     out = np.full((len(t_s), 3), np.nan)
-    for i, s in enumerate(sols):
-        if s is not None:
-            out[i] = earth.position_error_enu_m(s.state.lat_rad, s.state.lon_rad, s.state.alt_m,
-                                                tr.lat_rad[i], tr.lon_rad[i], tr.alt_m[i])
+    if have.any():
+        out[have] = scoring.solution_errors([s for s in sols if s is not None], traj)["pos_enu_m"]
     return out

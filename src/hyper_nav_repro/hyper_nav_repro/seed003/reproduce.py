@@ -1,6 +1,6 @@
 """Reproduce seed 003 (Chen et al. 2020) Table 3 and Figs. 6-9, with the PCRB.
 
-    ros2run hyper_nav_aiding reproduce_seed003 [--seeds 20] [--out results/seed003]
+    ros2run hyper_nav_repro repro_seed003 [--seeds 20] [--out results/seed003]
     make seed003
 
 Pure INS (barometric height only) from 0 to 420 s, then each algorithm
@@ -47,12 +47,12 @@ import numpy as np
 
 from hyper_nav_filter.core.config import FilterConfig
 
-from .core.geomag_aiding import GeomagAiding
-from .core.geomag_config import GeomagConfig
-from .core.geomag_map import GeomagMap, cached_map_path, get_or_build, load_map
-from .geomag_bound import FlightBound
-from .offline_geomag import AidedFlight, baro_measurements, imu_streams, mag_total, position_errors
-from .seed003_table import format_table, plot, summarize
+from hyper_nav_aiding.core.geomag_aiding import GeomagAiding
+from hyper_nav_aiding.core.geomag_config import GeomagConfig
+from hyper_nav_aiding.core.geomag_map import GeomagMap, cached_map_path, get_or_build, load_map
+from .bound import FlightBound
+from .aided_flight import AidedFlight, baro_measurements, imu_streams, mag_total, position_errors
+from .table import format_table, plot, summarize
 
 SHORT = {"duration_s": 60.0, "start_s": 30.0, "levels_nT": [1.0], "seeds": 2, "imu_decimate": 10,
          "map": {"lat_min_deg": 40.0, "lat_max_deg": 42.0, "lon_min_deg": 111.0, "lon_max_deg": 112.0,
@@ -302,7 +302,7 @@ def main(argv=None) -> int:
     try:
         return _run(args)
     except (ValueError, FileNotFoundError) as exc:
-        print(f"reproduce_seed003: error: {exc}", file=sys.stderr)
+        print(f"repro_seed003: error: {exc}", file=sys.stderr)
         return 2
 
 
@@ -337,7 +337,7 @@ def _run(args) -> int:
     sc = derived_scenario(sc0, overrides)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    log = (lambda m: print(f"[reproduce_seed003] {m}", flush=True))
+    log = (lambda m: print(f"[repro_seed003] {m}", flush=True))
     gmap = get_or_build(gcfg.map, gcfg.map_cache_dir or None, workers=max(1, args.workers), log=log)
     map_path = str(cached_map_path(gcfg.map, gcfg.map_cache_dir or None))
 

@@ -19,62 +19,27 @@ satellite from 30 s, never regained):
 """
 from __future__ import annotations
 
-import pathlib
-import tempfile
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from hyper_nav_filter.conversions import s_to_stamp_fields
-from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.nav_state import ImuSample
 from hyper_nav_filter.sources.router import SourceRouter
-from hyper_nav_sim.core import simulate
+from hyper_nav_sim.core import scoring
 from hyper_nav_sim.core.gnss.undetected_lock_loss import UndetectedLockLoss
-from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_sim.gnss_messages import fill_gnss_ephemeris
-from hyper_nav_sim.graph import apply_overrides
 
-from .conversions import fill_gnss_measurements
-from .core.virtual_gnss import VirtualGnss
-from .parameters import VirtualGnssNodeParams, from_scenario
+from hyper_nav_aiding.conversions import fill_gnss_measurements
+from hyper_nav_aiding.core.virtual_gnss import VirtualGnss
+from hyper_nav_aiding.offline import Flight
+from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
 
 CASES = ("a", "b", "c", "d")
 CASE_NAMES = {"a": "no lock loss", "b": "lock loss, virtual compensation",
               "c": "lock loss, no compensation (corrupted observations)", "d": "lock loss, INS coasting"}
-SCENARIO = "seed004_virtual"
-
-
-@dataclass
-class Flight:
-    """One scenario realisation: truth, IMU and the receiver epochs with and
-    without the loss of lock (same noise draws)."""
-    sc: object
-    traj: object
-    imu: object
-    epochs_loss: list
-    epochs_no_loss: list
-    t_loss_s: float
-
-
-def prepare(seed: int, world: str = "realistic", duration_s: float | None = None,
-            scenario: str = SCENARIO, overrides: dict | None = None) -> Flight:
-    """Simulate the flight of scenario ``seed``: ``world`` 'realistic' |
-    'perfect'; ``overrides``: further dotted scenario fields."""
-    over = {"seed": int(seed), "world.model": world, **(overrides or {})}
-    if duration_s is not None:
-        over["duration_s"] = float(duration_s)
-    tmp = pathlib.Path(tempfile.mkdtemp(prefix="seed004_"))
-    sc = apply_overrides(load_scenario(scenario), over, tmp)
-    traj = sc.trajectory()
-    imu = simulate.imu_stream(sc, traj)
-    loss = simulate.gnss_raw_stream(sc, traj)
-    outages = sc.data["gnss"]["raw"]["lock"]["outages"]
-    sc_nl = apply_overrides(sc, {"gnss.raw.lock.outages": []}, tmp)
-    no_loss = simulate.gnss_raw_stream(sc_nl, traj)
-    return Flight(sc, traj, imu, loss, no_loss, float(min(o[0] for o in outages)) if outages else np.inf)
 
 
 @dataclass
@@ -168,11 +133,8 @@ def run_case(fl: Flight, case: str, virtual: dict | None = None, rng_seed: int =
                 router.handle_topic(vtopic, fill_gnss_measurements(GnssMeasurements(), v, el, az, "gnss_antenna"))
     sols += eng.release(final=True)
     wall = time.perf_counter() - t0
-    t = np.array([s.t_s for s in sols])
-    tr = fl.traj.truth(t)
-    pos = np.array([earth.position_error_enu_m(s.state.lat_rad, s.state.lon_rad, s.state.alt_m,
-                                               tr.lat_rad[i], tr.lon_rad[i], tr.alt_m[i]) for i, s in enumerate(sols)])
-    vel = np.array([s.state.vel_enu_mps for s in sols]) - tr.vel_enu_mps
+    e = scoring.solution_errors(sols, fl.traj)
+    t, pos, vel = e["t"], e["pos_enu_m"], e["vel_enu_mps"]
     psl = cfg.layout.sl("pos")
     nees = np.array([p @ np.linalg.solve(s.P[psl, psl], p) for p, s in zip(pos, sols)])
     sig = np.array([np.sqrt(np.trace(s.P[psl, psl])) for s in sols])

@@ -8,7 +8,7 @@ and the perfect-model simulated worlds. Prints our numbers beside the
 paper's, writes ``seed004_tables.json`` and the error curves (the paper's
 Figs. 5-6) as PNGs.
 
-    ros2run hyper_nav_aiding reproduce_seed004 [--seeds 3] [--worlds realistic,perfect] [--out DIR] [--short]
+    ros2run hyper_nav_repro repro_seed004 [--seeds 3] [--worlds realistic,perfect] [--out DIR] [--short]
 
 Variants beside the paper's cases (case (b) is the fused-state source with
 the paper's eq. 11 noise added, as the scenario says):
@@ -36,7 +36,9 @@ import time
 
 import numpy as np
 
-from .seed004_cases import CASE_NAMES, prepare, run_case, statistics
+from hyper_nav_aiding.offline import prepare
+
+from .cases import CASE_NAMES, run_case, statistics
 
 # Seed 004 Table 4 (position, m) and Table 5 (velocity, m/s): mean, std, max
 PAPER = {

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from hyper_nav_aiding.reproduce_seed000 import PAPER, main
+from hyper_nav_repro.seed000.reproduce import PAPER, main
 
 
 def test_short_mode_writes_every_part(tmp_path, capsys):

@@ -16,9 +16,8 @@ from hyper_nav_filter.core.tracking import params_store
 from hyper_nav_filter.core.tracking.config import TrackerConfig
 from hyper_nav_filter.core.tracking.lekf import Lekf, LekfArch
 from hyper_nav_filter.core.tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
-from hyper_nav_sim import repro_seed002
-from hyper_nav_sim.core import tracking_data as td
-from hyper_nav_sim.core.boost_glide_config import CAV_H
+from hyper_nav_repro.seed002 import reproduce as repro_seed002
+from hyper_nav_repro.seed002 import training_set as td
 
 REPO = pathlib.Path(__file__).resolve().parents[4]
 RADAR_SIGMA = np.array([2000.0, 0.01, 0.01])
@@ -30,7 +29,7 @@ def test_ekf_is_consistent_on_a_non_maneuvering_glide():
     the filter's Q covers its model's mismatch (exponential atmosphere,
     sphere, no Coriolis) as white noise. The MC-averaged NEES of the six
     kinematic states, 30 * NEES ~ chi2(180), stays in its 95 % band."""
-    flight = {**CAV_H, "duration_s": 700.0, "end_speed_mps": 2000.0, "c_l_program": 0.3, "maneuvers": [],
+    flight = {**td.vehicle(), "duration_s": 700.0, "end_speed_mps": 2000.0, "c_l_program": 0.3, "maneuvers": [],
               "start": {"lat_deg": 5.0, "lon_deg": 30.0, "alt_m": 47000.0, "speed_mps": 6900.0, "gamma_deg": -0.1,
                         "psi_deg": 60.0}}
     tr = td.fly(flight)

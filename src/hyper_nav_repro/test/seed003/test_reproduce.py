@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from hyper_nav_aiding.reproduce_seed003 import main
+from hyper_nav_repro.seed003.reproduce import main
 
 
 def test_reproduction_short_mode(tmp_path, capsys):

@@ -5,7 +5,7 @@ finds for the uncompensated case (corrupted observations, no gate) and ours
 for the others (the full run: README, ``make seed004``)."""
 import json
 
-from hyper_nav_aiding.reproduce_seed004 import PAPER, main
+from hyper_nav_repro.seed004.reproduce import PAPER, main
 
 
 def test_short_mode_writes_table_json_png_and_orders_the_cases(tmp_path, capsys):
