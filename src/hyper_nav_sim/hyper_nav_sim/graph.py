@@ -268,7 +268,11 @@ class Graph:
         sc_path = str(self.scenario.path)
         diag = float(self.scenario["graph.diagnostics_period_s"])
         if name in SENSOR_TOPICS:
-            p = {"scenario": sc_path, "min_subscribers": self._subscribers(SENSOR_TOPICS[name])}
+            # each topic waits for its own consumers (an aiding node may take one topic of a sensor)
+            counts = {t: self._subscribers([t]) for t in SENSOR_TOPICS[name]}
+            p = {"scenario": sc_path, "min_subscribers": max(counts.values())}
+            if len(set(counts.values())) > 1:
+                p.update({"wait_topics": list(counts), "wait_counts": list(counts.values())})
             if name == "gnss":
                 p["raw_min_subscribers"] = self._subscribers(["gnss/raw"])
         elif name == "truth":
