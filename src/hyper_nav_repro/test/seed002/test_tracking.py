@@ -90,7 +90,7 @@ def _table2():
 def test_shipped_lekf_reproduces_the_reported_run0_figures():
     """The committed parameter set, run on each scenario's own radar stream
     (run 0 of the reproduction), gives the RMSE recorded in the committed
-    results/seed002/table2.json (README table) within 1 %."""
+    results/seed002/table2.json (docs/tracking.md table) within 1 %."""
     table = _table2()
     arch, variables, meta = params_store.load("lekf_seed002")
     assert meta["data"]["data_seed"] == table["lekf_data_seed"]
@@ -108,7 +108,7 @@ def test_reproduction_short_mode_runs(tmp_path):
         r = np.asarray(res["filters"][ft]["rmse_mean"])
         assert np.all(np.isfinite(r)) and res["filters"][ft]["ms_per_step"] > 0
     # the bound is an expectation: 3 runs of 200 s are too few to compare with it
-    # (the full reproduction's ratios are 1.5-16, README); here it must be finite
+    # (the full reproduction's ratios are 1.5-16, docs/tracking.md); here it must be finite
     assert np.all(np.isfinite(res["pcrb_rms"])) and np.all(np.asarray(res["pcrb_rms"]) > 0)
     # 200 s of scenario 1 (no maneuver yet): every filter tracks within 3 km / 100 m/s
     for ft in repro_seed002.FILTERS:

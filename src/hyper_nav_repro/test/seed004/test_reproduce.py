@@ -2,7 +2,7 @@
 flight, lock lost from 10 s, one seed, realistic world): it prints the table,
 writes the JSON and the PNG, and the four cases are in the order the paper
 finds for the uncompensated case (corrupted observations, no gate) and ours
-for the others (the full run: README, ``make seed004``)."""
+for the others (the full run: docs/seed004-virtual-gnss.md, ``make repro-seed004``)."""
 import json
 
 from hyper_nav_repro.seed004.reproduce import PAPER, main
