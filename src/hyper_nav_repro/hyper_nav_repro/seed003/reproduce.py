@@ -7,7 +7,7 @@ Pure INS (barometric height only) from 0 to 420 s, then each algorithm
 (MAGCOM, ICCP, SIMAN of the paper, and our EKF pseudo-fix) from 420 to
 790 s, at the map-error levels 0.1, 1, 5 and 10 nT, over N random seeds,
 on the offline fusion core with the node's aiding core in the loop
-(``offline_geomag``). Every parameter comes from the scenario
+(``aided_flight``). Every parameter comes from the scenario
 (``seed003.yaml``: ``geomag:`` and ``geomag.reproduction:``).
 
 Per cell: absolute mean latitude and longitude error over 420-790 s (the
@@ -15,7 +15,7 @@ paper's metric; median and 5-95 % over seeds), the same split along and
 across the field gradient (RMS), the aiding's computation time, fixes
 accepted/gated, and the share of seeds where the aided error ends above the
 pure-INS error ("diverged"); beside the paper's single-run values and the
-PCRB (``geomag_bound``; lat/lon as the mean |error| of a Gaussian with the
+PCRB (``bound``; lat/lon as the mean |error| of a Gaussian with the
 bound's sigma, along/across as RMS; ours / bound ratios on the RMS). Writes
 ``table3.json``, ``series.npz`` (error curves) and ``fig_<level>nT.png``
 (the paper's Figs. 6-9: latitude and longitude error against time).
