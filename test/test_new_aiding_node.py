@@ -10,8 +10,8 @@ workspace, and
 * the graph flies with it: every fix it relays is processed by the fusion
   node, and the report passes.
 
-No file of the workspace names it (``git grep fix_relay`` finds this test
-and its package only)."""
+No code of the workspace names it (``git grep fix_relay`` finds its
+package, this test and the documentation that points to them)."""
 import json
 import pathlib
 import shutil
