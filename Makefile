@@ -38,24 +38,24 @@ bench: setup
 	@$(ENV) python benchmarks/run_all.py
 
 train-lekf: setup
-	@$(ENV) ros2run hyper_nav_sim train_lekf --epochs 12
+	@$(ENV) ros2run hyper_nav_repro train_lekf --epochs 12
 
 repro-seed002: setup
-	@$(ENV) ros2run hyper_nav_sim repro_seed002 --out results/seed002 $(ARGS)
+	@$(ENV) ros2run hyper_nav_repro repro_seed002 --out results/seed002 $(ARGS)
 
 repro-seed001: setup
-	@$(ENV) ros2run hyper_nav_sim mc_campaign --scenario seed001 --runs 10 --out results/seed001 $(ARGS)
+	@$(ENV) ros2run hyper_nav_repro repro_seed001 --out results/seed001 $(ARGS)
 
 repro-seed000: setup
-	@$(ENV) ros2run hyper_nav_aiding reproduce_seed000 --out results/seed000_rl_dlac $(ARGS)
+	@$(ENV) ros2run hyper_nav_repro repro_seed000 --out results/seed000_rl_dlac $(ARGS)
 
 SEEDS ?= 20
 WORKERS ?= 1
 repro-seed003: setup
-	@$(ENV) ros2run hyper_nav_aiding reproduce_seed003 --seeds $(SEEDS) --workers $(WORKERS) --out results/seed003 $(ARGS)
+	@$(ENV) ros2run hyper_nav_repro repro_seed003 --seeds $(SEEDS) --workers $(WORKERS) --out results/seed003 $(ARGS)
 
 repro-seed004: setup
-	@$(ENV) ros2run hyper_nav_aiding reproduce_seed004 --out results/seed004 $(ARGS)
+	@$(ENV) ros2run hyper_nav_repro repro_seed004 --out results/seed004 $(ARGS)
 
 # earlier names
 reproduce-seed000: repro-seed000

@@ -16,8 +16,7 @@ import time
 
 import yaml
 
-from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from scratch import scratch_dir
 from hyper_nav_sim.mc_campaign import campaign
 

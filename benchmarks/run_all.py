@@ -26,8 +26,7 @@ import time
 
 
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from scratch import scratch_dir
 from hyper_nav_sim.offline_fly import gnss_measurements
 

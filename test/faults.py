@@ -13,9 +13,9 @@ import numpy as np
 from ament_index_python.packages import get_package_prefix
 
 from hyper_nav_sim.core.bag import BagWriter, deserialize, read_bag, serialize
-from hyper_nav_sim.graph import EXECUTABLES
+from hyper_nav_sim.graph import executables
 
-EXE_TO_NODE = {exe: name for name, (_pkg, exe) in EXECUTABLES.items()}
+EXE_TO_NODE = {exe: name for name, (_pkg, exe) in executables().items()}
 
 
 def command(pkg: str, exe: str) -> str:

@@ -1,5 +1,5 @@
-"""The commands documented in README.md and bags/README.md, read from the
-files themselves so that commands added later are covered too.
+"""The commands documented in README.md, bags/README.md and docs/*.md, read
+from the files themselves so that commands added later are covered too.
 
 A command is:
 

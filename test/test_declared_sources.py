@@ -15,7 +15,8 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from hyper_nav_filter.core import earth
 from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import delivery_check, errors, load_run, states_from_msgs
+from hyper_nav_sim.core.scoring import errors, states_from_msgs
+from hyper_nav_sim.report import delivery_check, load_run
 from hyper_nav_sim.testing import TopicCollector
 
 pytestmark = pytest.mark.graph

@@ -238,7 +238,8 @@ def test_unreadable_and_truncated_bags(tmp_path, capsys):
     the file, and still scores what is readable. (report, replay_filter and
     run_graph are called in-process, as their console scripts do.)"""
     from hyper_nav_sim.graph import main as run_graph
-    from hyper_nav_sim.report import main as report, replay_main as replay_filter
+    from hyper_nav_sim.replay_filter import main as replay_filter
+    from hyper_nav_sim.report import main as report
     tiny = tmp_path / "tiny"
     tiny.mkdir()
     (tiny / "tiny.mcap").write_bytes((SAMPLE / "sample_short.mcap").read_bytes()[:20])

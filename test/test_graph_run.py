@@ -6,7 +6,8 @@ from ament_index_python.packages import get_package_prefix
 
 from hyper_nav_filter.offline import run_offline
 from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.report import delivery_check, errors, states_from_msgs, summarize
+from hyper_nav_sim.core.scoring import errors, states_from_msgs, summarize
+from hyper_nav_sim.report import delivery_check
 
 pytestmark = pytest.mark.graph
 

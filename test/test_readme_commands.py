@@ -1,6 +1,6 @@
-"""Every command documented in README.md and bags/README.md runs and exits 0
-(``test/readme_commands.py`` says what counts as a command and how a long
-one names its short form).
+"""Every command documented in README.md, bags/README.md and docs/*.md runs
+and exits 0 (``test/readme_commands.py`` says what counts as a command and
+how a long one names its short form).
 
 The commands run in a scratch copy of the checkout (symlinks to the sources,
 the venv and the build; a real ``bags/`` with the committed sample bag), so
@@ -21,14 +21,14 @@ from readme_commands import commands  # noqa: E402
 
 pytestmark = pytest.mark.graph
 REPO = pathlib.Path(__file__).resolve().parents[1]
-FILES = [REPO / "README.md", REPO / "bags" / "README.md"]
+FILES = [REPO / "README.md", REPO / "bags" / "README.md"] + sorted((REPO / "docs").glob("*.md"))
 LINKED = ["Makefile", "tools", "src", ".venv", "install", "build", "benchmarks", "requirements.txt",
-          "requirements-ros.txt", "constraints.txt", "pytest.ini", "README.md", "test"]
+          "requirements-ros.txt", "constraints.txt", "pytest.ini", "README.md", "docs", "test"]
 TIMEOUT_S = 300
 
 
 def all_commands():
-    """Commands of both files, the first occurrence of each (with its marker)."""
+    """Commands of every file, the first occurrence of each (with its marker)."""
     out, seen = [], set()
     for path in FILES:
         for c in commands(path):

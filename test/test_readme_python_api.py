@@ -1,4 +1,4 @@
-"""The README's two Python examples, run verbatim: the Graph/TopicCollector
+"""The two Python examples of docs/python-api.md, run verbatim: the Graph/TopicCollector
 snippet (it used to hang: the fusion node waited for subscribers on all
 three outputs while the snippet subscribes one), and the pytest-fixture
 example, in a fresh pytest that finds the fixture through the installed
@@ -16,8 +16,8 @@ REPO = pathlib.Path(__file__).resolve().parents[1]
 
 
 def python_blocks() -> list[str]:
-    text = (REPO / "README.md").read_text()
-    section = text[text.index("## Python API for your own ROS tests"):]
+    text = (REPO / "docs" / "python-api.md").read_text()
+    section = text[text.index("# Python API for your own ROS tests"):]
     section = section[:section.index("\n## ", 5)]
     return re.findall(r"```python\n(.*?)```", section, flags=re.S)
 
@@ -25,7 +25,7 @@ def python_blocks() -> list[str]:
 def test_python_api_snippet_runs_verbatim(capsys):
     snippet = python_blocks()[0]
     assert "Graph(" in snippet and "TopicCollector(" in snippet
-    exec(compile(snippet, "README.md", "exec"), {"__name__": "readme_snippet"})
+    exec(compile(snippet, "docs/python-api.md", "exec"), {"__name__": "readme_snippet"})
     n = int(capsys.readouterr().out.strip().splitlines()[-1])
     # 10 s at 50 Hz; the collector subscribes after the graph starts, so the first few may be missed
     assert 400 <= n <= 500, n

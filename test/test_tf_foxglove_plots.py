@@ -15,7 +15,7 @@ from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.attitude import quat_xyzw_to_C
 from hyper_nav_sim import run_plots
 from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.report import errors, states_from_msgs
+from hyper_nav_sim.core.scoring import errors, states_from_msgs
 
 pytestmark = pytest.mark.graph
 
@@ -97,7 +97,7 @@ def test_run_plots_show_errors_within_the_filters_bounds(recorded_run, tmp_path)
     bag.mkdir()
     for f in recorded_run["bag"].iterdir():
         (bag / f.name).symlink_to(f)
-    fig = run_plots.write(bag, recorded_run, recorded_run["scenario"], errors)
+    fig = run_plots.write(bag, recorded_run, recorded_run["scenario"])
     for png in ("errors.png", "consistency.png", "track.png"):
         assert (bag / png).stat().st_size > 20_000
     for key, share in fig["inside_3sigma"].items():

@@ -45,6 +45,12 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
       rm -rf install/tf2_msgs build/tf2_msgs
     fi
   done
+  # console scripts of the Python packages are written again by the build: drop them first, so
+  # that an executable removed from a setup.py (or moved to another package) does not linger
+  for pkg in src/*/setup.py; do
+    name=$(basename "$(dirname "$pkg")")
+    rm -f "install/$name/lib/$name/"*
+  done
   # shellcheck disable=SC1091
   source "$VENV/bin/activate"
   export CMAKE_PREFIX_PATH="$VENV" AMENT_PREFIX_PATH="$VENV"
@@ -54,5 +60,5 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
   touch install/.stamp
   # compile the filter's fast-path kernels into numba's on-disk cache now, not in a node's first callback
   ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
-    python -m hyper_nav_filter.core.fast.warmup )
+    python -m hyper_nav_filter.core.warmup )
 fi

@@ -16,13 +16,18 @@ setup(
     maintainer_email="maintainers@hyper-nav.org",
     description="Navigation aiding: geomagnetic matching, virtual pseudoranges, lever-arm learning.",
     license="Apache-2.0",
-    entry_points={"console_scripts": [
-        "geomag_node = hyper_nav_aiding.nodes.geomag_node:main",
-        "reproduce_seed003 = hyper_nav_aiding.reproduce_seed003:main",
-        "build_geomag_map = hyper_nav_aiding.build_geomag_map:main",
-        "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
-        "reproduce_seed004 = hyper_nav_aiding.reproduce_seed004:main",
-        "lever_arm_node = hyper_nav_aiding.nodes.lever_arm_node:main",
-        "reproduce_seed000 = hyper_nav_aiding.reproduce_seed000:main",
-    ]},
+    entry_points={
+        "console_scripts": [
+            "geomag_node = hyper_nav_aiding.nodes.geomag_node:main",
+            "build_geomag_map = hyper_nav_aiding.build_geomag_map:main",
+            "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
+            "lever_arm_node = hyper_nav_aiding.nodes.lever_arm_node:main",
+        ],
+        # the aiding nodes, declared to the launcher and the scenario loader (hyper_nav_sim.core.aiding_nodes)
+        "hyper_nav.aiding_nodes": [
+            "geomag = hyper_nav_aiding.descriptors:GEOMAG",
+            "lever_arm = hyper_nav_aiding.descriptors:LEVER_ARM",
+            "virtual_gnss = hyper_nav_aiding.descriptors:VIRTUAL_GNSS",
+        ],
+    },
 )

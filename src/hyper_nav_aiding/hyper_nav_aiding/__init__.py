@@ -10,6 +10,9 @@ Layout (same core/wrapper split as the other packages):
 Virtual GNSS (issue #8): core/virtual_gnss.py (state machine: stored
 ephemerides, lock-loss detection, nothing stale), core/virtual_pseudoranges.py
 (eqs. 8-11), core/alpha_beta.py and core/fused_extrapolation.py (vehicle
-position sources), core/virtual_gnss_config.py; nodes/virtual_gnss_node.py;
-reproduce_seed004.py (Tables 4-5, ``ros2run hyper_nav_aiding reproduce_seed004``).
+position sources), core/virtual_gnss_config.py; nodes/virtual_gnss_node.py.
+
+The nodes are declared to the launcher and the scenario loader by
+``descriptors.py`` (entry-point group ``hyper_nav.aiding_nodes``). The paper
+reproductions that use these cores are in the ``hyper_nav_repro`` package.
 """

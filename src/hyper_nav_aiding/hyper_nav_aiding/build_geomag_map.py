@@ -3,7 +3,7 @@ in the cache, or write it to a given file::
 
     ros2run hyper_nav_aiding build_geomag_map --scenario seed003 [--out map.npz] [--workers 2]
 
-Prints the file and its provenance. The node and ``reproduce_seed003`` load
+Prints the file and its provenance. The node and ``repro_seed003`` load
 the same cache entry (``geomag_map.cached_map_path``), so building once
 before a graph run keeps the node's start-up short (seed 003's map: 801 x
 301 nodes, about 45 s on one core).

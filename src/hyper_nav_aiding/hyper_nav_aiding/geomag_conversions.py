@@ -15,6 +15,8 @@ messages live, rosbags messages offline); no rclpy import.
   pseudo-fix along the 3-D gradient) carries its altitude and full ENU
   covariance instead (degenerate: information along one direction only);
   and hyper_nav_msgs/MatchQuality fields.
+* MatchResult -> the fusion core's measurement (offline runs: what the
+  fusion node's declared source makes of the published fix).
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ import numpy as np
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.attitude import quat_xyzw_to_C
+from hyper_nav_filter.core.measurements import HorizontalFix, PositionFix
 
 from .core.matching import MagSample, MatchResult, NavPoint
 
@@ -105,3 +108,13 @@ def match_quality_fields(res: MatchResult, frame_id: str) -> dict:
               "gradient_nt_per_km": num(res.gradient_nt_per_km), "compute_time_s": float(res.compute_time_s),
               "map_epoch_bias_nt": num(res.map_epoch_bias_nT)})
     return d
+
+
+def fix_measurement(res):
+    """The fusion measurement of a fix, as the fusion node's declared source
+    converts it: horizontal (``horizontal_fix`` -> ``HorizontalFix``, seed 003
+    eqs. 20-26) or, for a 3-D fix, ``position_fix`` -> ``PositionFix`` with
+    the full ENU covariance."""
+    if res.cov_enu_m2 is not None:
+        return PositionFix(res.t_s, res.lat_rad, res.lon_rad, res.alt_m, res.cov_enu_m2)
+    return HorizontalFix(res.t_s, res.lat_rad, res.lon_rad, res.cov_en_m2)

@@ -103,15 +103,15 @@ class VirtualGnssNodeParams:
 
 def from_scenario(sc) -> dict:
     """The node's parameters from a scenario (``hyper_nav_sim`` Scenario)."""
+    from hyper_nav_sim.core.aiding_nodes import flat_parameters
     cfg = VirtualGnssConfig.from_config(sc.data.get("virtual_gnss"))
-    out = {}
-    for f in fields(cfg):
-        val = getattr(cfg, f.name)
-        out[f"virtual_gnss.{f.name}"] = str(val) if f.name == "pseudorange_sigma_m" else val
+    # every field of the validated block (defaults filled); the sigma is a string parameter ('elevation' or metres)
+    out = flat_parameters({f.name: str(getattr(cfg, f.name)) if f.name == "pseudorange_sigma_m" else getattr(cfg, f.name)
+                           for f in fields(cfg)}, "virtual_gnss")
     # the receiver's broadcast models: those of the scenario's (first) gnss_raw source, which
     # default to the gnss.raw block's (the Klobuchar set its satellites broadcast)
-    raw = next((e for e in sc.filter_sources().values() if e.get("type") == "gnss_raw"), {})
     from hyper_nav_sim.core.gnss.receiver import GnssReceiverConfig
+    raw = next((e for e in sc.filter_sources().values() if e.get("type") == "gnss_raw"), {})
     rx = GnssReceiverConfig.from_dict(sc.data.get("gnss", {}).get("raw"))
     out.update({"gnss.ionosphere": raw.get("ionosphere", rx.ionosphere),
                 "gnss.klobuchar_alpha": [float(x) for x in raw.get("klobuchar_alpha", rx.klobuchar_alpha)],

@@ -18,7 +18,7 @@ from rclpy.signals import SignalHandlerOptions
 
 def publisher_qos(depth: int) -> QoSProfile:
     """Reliable, keep-last ``depth``: deep enough for the IMU rate so that a
-    paced graph loses nothing (see README, QoS)."""
+    paced graph loses nothing (see docs/faults-and-timing.md)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.RELIABLE)
 
 

@@ -41,7 +41,6 @@ flown, overrides applied; ``report`` and ``replay_filter`` use it) and
 from __future__ import annotations
 
 import argparse
-import copy
 import datetime
 import json
 import os
@@ -58,40 +57,27 @@ import yaml
 from ament_index_python.packages import get_package_prefix
 
 
+from .core import aiding_nodes
 from .core.fields import suggestion
-from .core.scenario import Scenario, ScenarioError, check_override_key, known_fields, load_scenario, validate
+from .core.scenario import Scenario, ScenarioError, apply_overrides, bag_scenario, fusion_inputs, load_scenario
 
 SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
                  "baro": ["baro/pressure"], "radar": ["radar/track"]}
 RAW_GNSS_TOPICS = ["gnss/raw", "gnss/ephemeris"]
 OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
-# aiding nodes (hyper_nav_aiding): node -> (scenario block, inputs(block) -> the sensor topics it
-# takes, whose publishers wait for it, enabled by default when its block is present). nav/state is
-# never among the inputs: the fusion node waits for one subscriber count on all its outputs, and no
-# nav/state flows before the IMU, whose publisher waits for the node. A node starts when its block
-# enables it (``enabled``) or when a fusion source takes its output topic (AIDING_OUTPUTS).
-AIDING_NODES = {
-    "virtual_gnss": ("virtual_gnss", lambda b: {"gnss/raw", "gnss/ephemeris", "imu/data_raw"} | (
-        {"gnss/fix"} if b.get("position_source") == "alpha_beta" else set()), False),
-    "geomag": ("geomag", lambda b: {"imu/mag"}, False),
-    # RL-DLAC (seed 000): its parameters are the filter configuration and its block (aiding_parameters)
-    "lever_arm": ("lever_arm_learning", lambda b: {"imu/data_raw", "gnss/fix", "gnss/vel"}, True),
-}
-AIDING_OUTPUTS = {"geomag": "geomag/fix"}
+# The aiding nodes (packages above this one) are not named here: each is declared by its
+# package (core/aiding_nodes.py: executable, scenario block, inputs, outputs, parameters).
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
-CLOCK_GATED = ("fusion", "geomag", "virtual_gnss", "lever_arm")   # nodes the clock waits for (clock_gate)
 TRACKER_OUTPUTS = ["track/fix", "track/vel"]     # tracker_node: starts with a radar block (seed 002)
 DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
-EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
-               "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
-               "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
-               "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
-               "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
-               "virtual_gnss": ("hyper_nav_aiding", "virtual_gnss_node"), "geomag": ("hyper_nav_aiding", "geomag_node"),
-               "lever_arm": ("hyper_nav_aiding", "lever_arm_node"),
-               "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
+CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
+                    "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
+                    "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
+                    "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
+                    "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
+                    "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
 # ROS node names where they differ from the graph's process names
-ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
+CORE_ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
 CLOCK_SOURCES = ("truth", "player")          # publish /clock; their normal exit ends the run
 CRITICAL_STREAMS = ("imu/data_raw", "nav/state")
@@ -100,66 +86,37 @@ REPLAY_TOPICS = ("imu/data_raw", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephem
                  "baro/pressure", "radar/track", "truth/state")
 
 
+def executables() -> dict[str, tuple[str, str]]:
+    """Every node the graph can start: name -> (package, executable), the
+    installed aiding nodes' included."""
+    return {**CORE_EXECUTABLES, **{n.name: (n.package, n.executable) for n in aiding_nodes.descriptors().values()}}
+
+
+def ros_name(name: str) -> str:
+    """The ROS node name of a graph process (what its /diagnostics carry as hardware_id)."""
+    node = aiding_nodes.descriptors().get(name)
+    return (node.ros_name if node else CORE_ROS_NAMES.get(name)) or name
+
+
 def executable(name: str) -> str:
     """Path of a node executable as ``ros2 run`` resolves it."""
-    if name not in EXECUTABLES:
-        hint = suggestion(name, EXECUTABLES)
+    known = executables()
+    if name not in known:
+        hint = suggestion(name, known)
         raise ScenarioError(f"unknown node '{name}'" + (f"; did you mean '{hint}'?" if hint else "") +
-                            f" (nodes: {', '.join(sorted(EXECUTABLES))})")
-    pkg, exe = EXECUTABLES[name]
+                            f" (nodes: {', '.join(sorted(known))})")
+    pkg, exe = known[name]
     path = pathlib.Path(get_package_prefix(pkg)) / "lib" / pkg / exe
     if not path.exists():
         raise FileNotFoundError(f"{path} not found: build the workspace (make setup)")
     return str(path)
 
 
-def apply_overrides(sc: Scenario, overrides: dict | None, workdir: pathlib.Path) -> Scenario:
-    """A copy of the scenario with dotted-field overrides, validated and
-    written to workdir so that every node reads the same file."""
-    data = copy.deepcopy(sc.data)
-    tree = known_fields()
-    for dotted, value in (overrides or {}).items():
-        check_override_key(dotted, tree)
-        cur = data
-        parts = dotted.split(".")
-        for part in parts[:-1]:
-            cur = cur.setdefault(part, {})
-        if value is None:                  # --set maneuvers=null removes the field
-            cur.pop(parts[-1], None)
-        else:
-            cur[parts[-1]] = value
-    path = workdir / f"{data['name']}.yaml"
-    data = validate(data, str(path))
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
-    return Scenario(path, data)
-
-
-def fusion_inputs(sc: Scenario) -> set[str]:
-    """Topics the fusion node subscribes: those of the scenario's declared sources."""
-    from hyper_nav_filter.sources import make_sources
-    return {i.topic.lstrip("/") for src in make_sources(sc.filter_source_specs(), sc.filter_config())
-            for i in src.inputs()}
-
-
-def flat_parameters(block: dict, prefix: str, skip=()) -> dict:
-    """A scenario block as dotted ROS parameters ({'geomag.magcom.area_cells': 25}):
-    the node declares and validates them (lists stay lists)."""
-    out = {}
-    for k, v in block.items():
-        if k in skip:
-            continue
-        if isinstance(v, dict):
-            out.update(flat_parameters(v, f"{prefix}.{k}"))
-        else:
-            out[f"{prefix}.{k}"] = v
-    return out
-
-
 def fusion_parameters(sc: Scenario) -> dict:
     """The fusion node's ROS parameters, all derived from the scenario."""
     from hyper_nav_filter.sources import spec_to_params
     start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
-    params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
+    params = aiding_nodes.filter_parameters(sc)
     params.update(spec_to_params(sc.filter_source_specs()))
     params.update({f"init.{k}": v for k, v in sc.filter_initial_values().items()})
     params.update({
@@ -195,19 +152,6 @@ def describe_exit(returncode: int) -> str:
     return f"exit code {returncode}"
 
 
-def aiding_parameters(sc: Scenario, block: str) -> dict:
-    """An aiding node's ROS parameters: the filter configuration it replays
-    with (``filter.<field>``) and its scenario block flattened to dotted names."""
-    def flat(d, prefix=""):
-        out = {}
-        for k, v in d.items():
-            out.update(flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
-        return out
-    params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
-    params.update(flat(sc.data[block]))
-    return params
-
-
 class Graph:
     def __init__(self, scenario: str | Scenario | None = None, record: str | os.PathLike | None = None,
                  nodes=None, overrides: dict | None = None,
@@ -240,7 +184,8 @@ class Graph:
                 nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
                                                    if block in self.scenario.data) + ("fusion",)
                 nodes += ("tracker",) if "radar" in self.scenario.data else ()
-            nodes += tuple(n for n in AIDING_NODES if self._aiding_wanted(n))
+            nodes += tuple(n.name for n in aiding_nodes.descriptors().values()
+                           if n.wanted(self.scenario.data, self._fusion_inputs))
         self.nodes = tuple(nodes)
         for name in self.nodes:
             executable(name)                     # unknown names fail here, with a suggestion
@@ -266,13 +211,6 @@ class Graph:
             self.node_params = {**self.node_params, "foxglove": {"qos_depth": int(self.scenario["graph.qos_depth"]),
                                                                  **foxglove, **self.node_params.get("foxglove", {})}}
 
-    def _aiding_wanted(self, name: str) -> bool:
-        """An aiding node runs when its scenario block enables it or a fusion source takes its output."""
-        key, _, default = AIDING_NODES[name]
-        if key in self.scenario.data and (self.scenario.data[key] or {}).get("enabled", default):
-            return True
-        return AIDING_OUTPUTS.get(name) in self._fusion_inputs
-
     # ---- parameters ------------------------------------------------------------
     def _recorded(self, topic: str) -> bool:
         """Whether the recorder takes this topic (all of them unless its ``topics`` parameter narrows it)."""
@@ -293,8 +231,8 @@ class Graph:
         n = 1 if any(self._recorded(t) for t in topics) else 0
         if "fusion" in self.nodes and self._fusion_inputs & set(topics):
             n += 1
-        n += sum(1 for name, (block, inputs, _) in AIDING_NODES.items()
-                 if name in self.nodes and inputs(self.scenario.data.get(block) or {}) & set(topics))
+        n += sum(1 for node in self._aiding()
+                 if set(node.inputs(self.scenario.data.get(node.block) or {})) & set(topics))
         if "tracker" in self.nodes and "radar/track" in topics:
             n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
@@ -305,15 +243,15 @@ class Graph:
         graph.clock_gate: false in the scenario to pace by the wall clock alone."""
         if not self.scenario["graph.clock_gate"]:
             return {}
-        names = [{"lever_arm": "lever_arm_learning"}.get(n, n) for n in self.nodes if n in CLOCK_GATED]
+        names = ["fusion"] if "fusion" in self.nodes else []
+        names += [node.ros_name or node.name for node in self._aiding() if node.gates_clock]
         if self.record:
             names.append("recorder")
         return {"allowance_nodes": names} if names else {}
 
-    def _deadline_s(self) -> float:
-        """An aiding output for epoch t must reach the fusion node before it releases t: the
-        clock waits at t + output_delay_s - 0.2 s while it is pending."""
-        return max(0.1, float(self.scenario.filter_config().output_delay_s) - 0.2)
+    def _aiding(self) -> list:
+        """The descriptors of the aiding nodes of this graph."""
+        return [node for name, node in aiding_nodes.descriptors().items() if name in self.nodes]
 
     def _waits(self) -> dict:
         """The time source waits for these subscriber counts on the user's topics."""
@@ -340,14 +278,18 @@ class Graph:
         sc_path = str(self.scenario.path)
         diag = float(self.scenario["graph.diagnostics_period_s"])
         if name in SENSOR_TOPICS:
-            p = {"scenario": sc_path, "min_subscribers": self._subscribers(SENSOR_TOPICS[name])}
+            # each topic waits for its own consumers (an aiding node may take one topic of a sensor)
+            counts = {t: self._subscribers([t]) for t in SENSOR_TOPICS[name]}
+            p = {"scenario": sc_path, "min_subscribers": max(counts.values())}
+            if len(set(counts.values())) > 1:
+                p.update({"wait_topics": list(counts), "wait_counts": list(counts.values())})
             if name == "gnss":
                 p["raw_min_subscribers"] = self._subscribers(["gnss/raw"])
         elif name == "truth":
             sensors = len(self._sensor_nodes())
             p = {"scenario": sc_path, "clock_subscribers": sensors + (1 if self.record else 0) + self.extra.get("/clock", 0),
                  "min_subscribers": self._subscribers(["truth/state"])}
-            clock_nodes = [ROS_NAMES.get(n, n) for n in self._sensor_nodes()] + (["recorder"] if self.record else [])
+            clock_nodes = [ros_name(n) for n in self._sensor_nodes()] + (["recorder"] if self.record else [])
             if clock_nodes:
                 p["clock_nodes"] = clock_nodes
             waits = self._waits()
@@ -366,23 +308,11 @@ class Graph:
             p = tracker_parameters(self.scenario)
             p["radar.rate_hz"] = float(self.scenario["radar.rate_hz"])
             p["min_output_subscribers"] = min(self._subscribers([t]) for t in TRACKER_OUTPUTS)
-        elif name == "virtual_gnss":
-            from hyper_nav_aiding.parameters import from_scenario
-            p = from_scenario(self.scenario)
-            p["min_output_subscribers"] = self._subscribers([p["virtual_gnss.topic"]])
-            p["clock.deadline_s"] = self._deadline_s()
-        elif name == "geomag":
-            p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
-            p.update({"min_subscribers": self._subscribers([AIDING_OUTPUTS["geomag"]]),
-                      "qos.depth": int(self.scenario["graph.qos_depth"]),
-                      # the flight's date: the node checks its map's epoch against it (issue 27)
-                      "magnetometer.epoch_decimal_year": float(self.scenario["magnetometer.epoch_decimal_year"])})
-            # the solution a sample is matched against (by stamps): one released a second before the sample
-            # is taken, so the fix is made when the sample comes and reaches the filter before its release
-            p.setdefault("geomag.nav_reference_lag_s", float(self.scenario.filter_config().output_delay_s) + 1.0)
-            p["clock.deadline_s"] = self._deadline_s()
-        elif name == "lever_arm":
-            p = aiding_parameters(self.scenario, AIDING_NODES["lever_arm"][0])
+        elif name in aiding_nodes.descriptors():            # declared by its package
+            node = aiding_nodes.descriptors()[name]
+            p = node.parameters(self.scenario)
+            if node.output_wait_parameter:
+                p[node.output_wait_parameter] = self._subscribers(node.outputs(self.scenario.data.get(node.block) or {}))
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}
@@ -400,7 +330,7 @@ class Graph:
             streams = self.streams()
             t_min = float(self.scenario["monitor.stream_timeout_s"])
             watched = (["recorder"] if self.record else []) + list(self.nodes)
-            p = {"nodes": [ROS_NAMES.get(n, n) for n in watched],
+            p = {"nodes": [ros_name(n) for n in watched],
                  "streams": streams,
                  "stream_timeouts_s": [max(t_min, 3.0 / rates.get(t, 1.0)) for t in streams],
                  "critical_streams": [t for t in streams if t in CRITICAL_STREAMS],
@@ -463,7 +393,7 @@ class Graph:
         for name, p in self.procs.items():
             if name in seen or p.poll() is None or (name in CLOCK_SOURCES and p.returncode == 0):
                 continue
-            event = {"node": name, "ros_name": ROS_NAMES.get(name, name), "returncode": p.returncode,
+            event = {"node": name, "ros_name": ros_name(name), "returncode": p.returncode,
                      "how": describe_exit(p.returncode), "t_wall_s": round(time.monotonic() - self.t_start, 2)}
             self.exits.append(event)
             new.append(event)
@@ -581,13 +511,6 @@ class Graph:
     def __exit__(self, *exc) -> None:
         self.stop()
         self._tmp.cleanup()
-
-
-def bag_scenario(bag) -> str:
-    """The scenario a bag was recorded with (``scenario.yaml`` beside it, as
-    ``run_graph`` writes it), else the default scenario."""
-    path = pathlib.Path(bag) / "scenario.yaml"
-    return str(path) if path.is_file() else "default"
 
 
 class Interrupted(Exception):

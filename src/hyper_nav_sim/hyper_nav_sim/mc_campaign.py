@@ -29,7 +29,6 @@ import sys
 import time
 
 import numpy as np
-import yaml
 
 from .core import montecarlo
 from .progress import Progress
@@ -172,8 +171,7 @@ def beside_paper(per_run: list[dict], sc) -> str:
 
 
 def main(argv=None) -> int:
-    from .graph import apply_overrides
-    from .core.scenario import ScenarioError, load_scenario
+    from .core.scenario import ScenarioError, load_with_settings
     ap = argparse.ArgumentParser(prog="mc_campaign", description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenario", default="default", help="scenario name or YAML path")
     ap.add_argument("--runs", type=int, default=20)
@@ -193,11 +191,7 @@ def main(argv=None) -> int:
               "mc_campaign: error: --runs must be >= 1", file=sys.stderr)
         return 2
     try:
-        import tempfile
-        sc = load_scenario(args.scenario)
-        overrides = {k: yaml.safe_load(v) for k, _, v in (s.partition("=") for s in args.set)}
-        if overrides:
-            sc = apply_overrides(sc, overrides, pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_mc_")))
+        sc = load_with_settings(args.scenario, args.set)
     except ScenarioError as exc:
         print(f"mc_campaign: error: {exc}", file=sys.stderr)
         return 2

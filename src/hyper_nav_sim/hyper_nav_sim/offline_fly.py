@@ -8,12 +8,10 @@ import time
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.attitude import attitude_error_n_rad
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 
-from .core import simulate
+from .core import scoring, simulate
 
 
 def gnss_measurements(sc, traj, delay_s: float = 0.0, sort: bool = True) -> list:
@@ -56,13 +54,7 @@ def fly(sc, cfg, decimate: int = 1, duration_s: float | None = None, release_eve
 
 
 def per_axis_errors(sols, traj, t_from: float = 0.0):
-    """ENU per-axis errors (estimate - truth) of the released solutions from
-    t_from on: (times, {"att": deg, "vel": m/s, "pos": m}, each (N, 3))."""
-    sols = [s for s in sols if s.t_s >= t_from - 1e-9]
-    t = np.array([s.t_s for s in sols])
-    tr = traj.truth(t)
-    pos = np.array([earth.position_error_enu_m(s.state.lat_rad, s.state.lon_rad, s.state.alt_m,
-                                               tr.lat_rad[i], tr.lon_rad[i], tr.alt_m[i]) for i, s in enumerate(sols)])
-    vel = np.array([s.state.vel_enu_mps for s in sols]) - tr.vel_enu_mps
-    att = np.rad2deg([attitude_error_n_rad(s.state.C_b_n, tr.C_b_n[i]) for i, s in enumerate(sols)])
-    return t, {"att": att, "vel": vel, "pos": pos}
+    """ENU per-axis errors (estimate - truth, ``core.scoring``) of the released
+    solutions from t_from on: (times, {"att": deg, "vel": m/s, "pos": m}, each (N, 3))."""
+    e = scoring.solution_errors([s for s in sols if s.t_s >= t_from - 1e-9], traj)
+    return e["t"], {"att": e["att_enu_deg"], "vel": e["vel_enu_mps"], "pos": e["pos_enu_m"]}

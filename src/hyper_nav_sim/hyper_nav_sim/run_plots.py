@@ -22,6 +22,8 @@ from scipy.stats import chi2
 
 from hyper_nav_filter.conversions import stamp_to_s
 
+from .core import scoring
+
 BAND = (0.025, 0.975)
 KIND_DOF = {"gnss_fix": 3, "gnss_vel": 3, "horizontal_fix": 2, "baro_height": 1}
 
@@ -52,10 +54,9 @@ def nees(err: dict, cov: dict) -> dict:
     return {b: np.einsum("ni,ni->n", e[b], np.linalg.solve(cov[b], e[b][..., None])[..., 0]) for b in e}
 
 
-def arrays(nav_msgs, truth_msgs, errors_fn) -> dict:
-    """Errors, sigmas, NEES and NIS of a run (``errors_fn`` = report.errors)."""
-    from .report import states_from_msgs
-    err = errors_fn(states_from_msgs(nav_msgs), states_from_msgs(truth_msgs))
+def arrays(nav_msgs, truth_msgs) -> dict:
+    """Errors (``core.scoring.errors``), sigmas, NEES and NIS of a run."""
+    err = scoring.errors(scoring.states_from_msgs(nav_msgs), scoring.states_from_msgs(truth_msgs))
     t_nav = np.array([stamp_to_s(m.header.stamp) for m in nav_msgs])
     idx = np.searchsorted(t_nav, err["t"] - 1e-7)
     matched = [nav_msgs[i] for i in idx]
@@ -193,11 +194,11 @@ def _fixes(bag, topics: dict) -> dict:
     return {k: tuple(np.array(x) for x in v) for k, v in out.items()}
 
 
-def write(bag, run: dict, sc, errors_fn) -> dict:
+def write(bag, run: dict, sc) -> dict:
     """The three PNGs beside the bag; returns the figures the report keeps
     (share inside 3 sigma, mean NEES)."""
     bag = pathlib.Path(bag)
-    a = arrays(run["nav"], run["truth"], errors_fn)
+    a = arrays(run["nav"], run["truth"])
     plot_errors(a, bag / "errors.png", f"{sc.name}: nav/state - truth/state, filter +/-3 sigma")
     specs = sc.filter_source_specs()
     kinds = {s.type for s in specs if s.type != "imu"}

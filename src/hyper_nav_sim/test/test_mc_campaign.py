@@ -8,8 +8,7 @@ import pytest
 from scipy.stats import chi2
 
 from hyper_nav_sim.core import montecarlo
-from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from hyper_nav_sim.mc_campaign import _jsonable, campaign, plot
 
 

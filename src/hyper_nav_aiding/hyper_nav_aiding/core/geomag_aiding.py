@@ -5,7 +5,7 @@ measured total intensity) and the navigation solution at that epoch and
 returns a ``MatchResult`` (a fix, or the reason there is none) or None (the
 matcher has nothing this epoch, or matching has not started). The live node
 (``nodes/geomag_node.py``) and the offline reproduction
-(``reproduce_seed003``) call exactly this.
+(``repro_seed003``) call exactly this.
 
 Bad input never raises: non-finite samples, a missing or mismatched map, a
 solution outside the map, or a measured field that cannot be this map's

@@ -2,7 +2,7 @@
 20 s, lock lost from 10 s (the scenario's 30 s would cost 30 s more of flight)."""
 import pytest
 
-from hyper_nav_aiding.seed004_cases import prepare
+from hyper_nav_aiding.offline import prepare
 
 DURATION_S = 20.0
 T_LOSS_S = 10.0

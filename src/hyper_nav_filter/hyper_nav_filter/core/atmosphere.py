@@ -21,9 +21,16 @@ Vectorised over geometric altitude z [m] (numpy arrays or scalars).
 
 The speed of sound is sqrt(gamma R* T_M / M0) with gamma = 1.4 (a continuum
 quantity, only meaningful below ~86 km).
+
+``density_kgpm3_scalar`` and ``altitude_for_density_m_scalar`` are the
+scalar fast paths of ``density_kgpm3`` and ``altitude_for_density_m`` (the
+same formulae on one float, plain ``math``: the point-mass flight dynamics
+call them once per ODE right-hand side; a test compares them with the
+vectorised functions).
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -185,3 +192,34 @@ def pressure_height_gradient_pa_per_m(z_m):
     T, P, rho, _ = atmosphere(z_m)
     g = G0 * (R0_M / (R0_M + np.asarray(z_m, float))) ** 2
     return -rho * g
+
+
+# ---- scalar fast paths (one float in, one float out; the same formulae) ----------------
+def density_kgpm3_scalar(z_m: float) -> float:
+    """:func:`density_kgpm3` of one altitude [m], without array overhead."""
+    if z_m > Z_TOP_LAYERS_M:
+        return float(density_kgpm3(z_m))
+    H = R0_M * z_m / (R0_M + z_m)
+    i = 0
+    while i < 6 and H >= _H_B[i + 1]:
+        i += 1
+    Tb, Pb, Lb = _T_B[i], _P_B[i], _L_B[i]
+    dh = H - _H_B[i]
+    T = Tb + Lb * dh
+    P = Pb * math.exp(-_C * dh / Tb) if Lb == 0.0 else Pb * (Tb / T) ** (_C / Lb)
+    return P * M0 / (R_STAR * T)
+
+
+def altitude_for_density_m_scalar(rho_kgpm3: float) -> float:
+    """:func:`altitude_for_density_m` of one density [kg/m^3], without array overhead."""
+    if rho_kgpm3 < _UPPER[0, 3]:
+        return float(altitude_for_density_m(rho_kgpm3))
+    i = 0
+    while i < 6 and rho_kgpm3 <= _RHO_B[i + 1]:
+        i += 1
+    Tb, Lb, Hb = _T_B[i], _L_B[i], _H_B[i]
+    if Lb == 0.0:
+        H = Hb - Tb * math.log(rho_kgpm3 / _RHO_B[i]) / _C
+    else:
+        H = Hb + (Tb * (rho_kgpm3 / _RHO_B[i]) ** (-1.0 / (_C / Lb + 1.0)) - Tb) / Lb
+    return R0_M * H / (R0_M - H)

@@ -30,7 +30,7 @@ from sensor_msgs.msg import NavSatFix
 from tf2_msgs.msg import TFMessage
 
 from ..core.config import ALL_PARAMS, FilterConfig
-from ..core.fast.warmup import warm_up
+from ..core.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
@@ -40,7 +40,7 @@ from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields,
                       static_transform_fields, transform_fields)
 from ..ros_util import (all_matched, assign_fields, declare_params, diagnostic_array, latched_qos, publisher_qos,
                        run_node, subscriber_qos)
-from ..sources import REGISTRY, table_from_params
+from ..sources import load_plugins, table_from_params
 from ..sources.router import SourceRouter
 
 NODE_PARAMS = (
@@ -137,10 +137,11 @@ class FusionNode(Node):
                 ("qos", "reliable", "reliable or sensor_data"), ("msg", "", "ROS message type (default: the type's)"))]
             for s in base:
                 values[s.name] = self.declare_parameter(s.name, s.default).value
-            cls = REGISTRY.get(values[f"sources.{sid}.type"])
+            registry = load_plugins()                 # the built-in types and those other packages declare
+            cls = registry.get(values[f"sources.{sid}.type"])
             if cls is None:
                 raise ConfigError(f"sources.{sid}.type: unknown source type {values[f'sources.{sid}.type']!r} "
-                                  f"(known: {sorted(REGISTRY)})")
+                                  f"(known: {sorted(registry)})")
             values.update({f"sources.{sid}.{k}": v for k, v in
                            declare_params(self, cls.PARAMS, f"sources.{sid}.").items()})
             if not values[f"sources.{sid}.msg"]:

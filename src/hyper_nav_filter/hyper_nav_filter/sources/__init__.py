@@ -1,12 +1,13 @@
 """Declared fusion sources: converters from ROS messages to the core's
 measurements, IMU samples and model updates, registered by type name
 (``base`` explains the table). Types: imu, gnss_fix, gnss_vel, gnss_raw,
-baro_height, horizontal_fix, position_fix, model_update."""
+baro_height, horizontal_fix, position_fix, model_update; other packages add
+theirs through the entry-point group ``hyper_nav.sources`` (``load_plugins``)."""
 from __future__ import annotations
 
 from . import aiding, gnss, imu  # noqa: F401  (registration)
-from .base import (REGISTRY, SourceInput, SourceSpec, SourceType, make_sources, parse_sources, spec_to_params,
-                   table_from_params)
+from .base import (REGISTRY, SourceInput, SourceSpec, SourceType, load_plugins, make_sources, parse_sources,
+                   spec_to_params, table_from_params)
 
 # The table when a scenario declares none: IMU and loosely coupled GNSS.
 DEFAULT_TABLE = {
@@ -15,5 +16,5 @@ DEFAULT_TABLE = {
     "gnss_vel": {"type": "gnss_vel", "topic": "gnss/vel"},
 }
 
-__all__ = ["REGISTRY", "DEFAULT_TABLE", "SourceInput", "SourceSpec", "SourceType", "make_sources", "parse_sources",
-           "spec_to_params", "table_from_params"]
+__all__ = ["REGISTRY", "DEFAULT_TABLE", "SourceInput", "SourceSpec", "SourceType", "load_plugins", "make_sources",
+           "parse_sources", "spec_to_params", "table_from_params"]

@@ -13,14 +13,17 @@ message type to core measurements (or IMU samples, or model updates), with
 its own parameters (``PARAMS``, declared once, core.params). The fusion node,
 the offline replay, the graph starter and the report all read this one
 table; adding an aiding source is configuration plus, for a new kind of
-message, one converter (here) and one measurement model (core). Messages are
-duck-typed: rclpy messages live, rosbags-deserialized ones offline; no
-rclpy here.
+message, one converter (here, or in the aiding node's own package, declared
+through the entry-point group ``hyper_nav.sources``: ``"relay_fix =
+my_pkg.converter:RelayFixSource"``) and one measurement model (core).
+Messages are duck-typed: rclpy messages live, rosbags-deserialized ones
+offline; no rclpy here.
 """
 from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
+from importlib.metadata import entry_points
 
 from ..core.params import STR, ConfigError, ParamSpec, check_all, suggest
 
@@ -129,6 +132,8 @@ def navsatfix_check(msg, allow_no_covariance: bool = False) -> str | None:
 
 
 REGISTRY: dict[str, type[SourceType]] = {}
+PLUGIN_GROUP = "hyper_nav.sources"
+_plugins = {"loaded": False}
 
 
 def register(cls: type[SourceType]) -> type[SourceType]:
@@ -136,11 +141,27 @@ def register(cls: type[SourceType]) -> type[SourceType]:
     return cls
 
 
+def load_plugins() -> dict[str, type[SourceType]]:
+    """Register the converters other packages declare (entry-point group
+    ``hyper_nav.sources``, each a ``SourceType`` subclass), once; the registry."""
+    if not _plugins["loaded"]:
+        _plugins["loaded"] = True
+        for ep in sorted(entry_points(group=PLUGIN_GROUP), key=lambda e: e.name):
+            cls = ep.load()
+            if not (isinstance(cls, type) and issubclass(cls, SourceType) and cls.TYPE):
+                raise ConfigError(f"entry point {PLUGIN_GROUP}:{ep.name} ({ep.value}): not a SourceType with a TYPE")
+            if REGISTRY.get(cls.TYPE, cls) is not cls:
+                raise ConfigError(f"entry point {PLUGIN_GROUP}:{ep.name}: source type {cls.TYPE!r} is already registered")
+            register(cls)
+    return REGISTRY
+
+
 def parse_sources(table, where: str = "filter.sources") -> list[SourceSpec]:
     """Validate a sources table ({id: {type, topic, qos, <params>}}); errors
     name the field. Exactly one source drives time (type ``imu``)."""
     if not isinstance(table, dict) or not table:
         raise ConfigError(f"{where}: expected a mapping of source ids to {{type, topic, ...}}, got {table!r}")
+    load_plugins()
     specs = []
     for sid, entry in table.items():
         at = f"{where}.{sid}"
@@ -196,6 +217,7 @@ def spec_to_params(specs: list[SourceSpec]) -> dict:
 
 def table_from_params(get) -> dict:
     """Rebuild the table from flat parameters; ``get(name, default)`` reads one."""
+    load_plugins()
     table = {}
     for sid in get("sources", []):
         typ = get(f"sources.{sid}.type", None)

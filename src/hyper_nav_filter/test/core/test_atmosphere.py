@@ -48,3 +48,14 @@ def test_named_tuple_interface():
     st = atmosphere.us76([0.0, 11000.0])
     np.testing.assert_allclose(st.pressure_pa, [101325.0, 22699.9], rtol=1e-5)
     assert st.temperature_K[0] == pytest.approx(288.15)
+
+
+@pytest.mark.parametrize("z", [-500.0, 0.0, 5000.0, 11000.0, 25000.0, 32000.0, 47000.0, 51000.0, 60000.0, 71000.0,
+                               80000.0, 85999.0, 86500.0, 100000.0, 130000.0])
+def test_scalar_fast_paths_equal_the_vectorised_functions(z):
+    """The flight dynamics' per-call scalar paths: the same density and its inverse (to 1e-12 relative)."""
+    rho = atmosphere.density_kgpm3_scalar(z)
+    assert rho == pytest.approx(float(atmosphere.density_kgpm3(z)), rel=1e-12)
+    assert atmosphere.altitude_for_density_m_scalar(rho) == pytest.approx(
+        float(atmosphere.altitude_for_density_m(rho)), rel=1e-12, abs=1e-6)
+    assert atmosphere.altitude_for_density_m_scalar(rho) == pytest.approx(z, abs=1e-3)

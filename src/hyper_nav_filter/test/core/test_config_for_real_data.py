@@ -118,8 +118,7 @@ def test_initial_state_with_bias_and_scale_values_from_one_declaration():
 
 
 def test_scenario_initial_state_block_over_truth_plus_error(tmp_path):
-    from hyper_nav_sim.core.scenario import ScenarioError, load_scenario
-    from hyper_nav_sim.graph import apply_overrides
+    from hyper_nav_sim.core.scenario import ScenarioError, apply_overrides, load_scenario
     base = load_scenario("default")
     sc = apply_overrides(base, {"filter.initial_state": {"gyro_bias_deg_per_hr": [0.1, -0.1, 0.1],
                                                          "alt_m": 30500.0}}, tmp_path)

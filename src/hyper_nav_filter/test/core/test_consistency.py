@@ -6,8 +6,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from hyper_nav_filter.core import earth
-from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 
 N_RUNS, DURATION_S = 20, 60.0
 

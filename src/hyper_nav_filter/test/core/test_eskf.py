@@ -76,7 +76,7 @@ def test_covariance_stays_symmetric_positive_definite_over_two_hours():
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_filter.core.measurements import GnssVelocity
     from hyper_nav_sim.core import simulate
-    from hyper_nav_sim.graph import apply_overrides
+    from hyper_nav_sim.core.scenario import apply_overrides
     sc = apply_overrides(load_scenario("default"),
                          {"duration_s": DURATION_S, "imu.rate_hz": 10.0, "gnss.rate_hz": 1.0,
                           "start.vel_enu_mps": [1700.0, 0.0, 0.0],

@@ -273,8 +273,7 @@ def test_gnss_raw_source_needs_the_clock_block_and_valid_parameters():
 
 
 def test_scenario_gnss_raw_source_is_validated(tmp_path):
-    from hyper_nav_sim.core.scenario import ScenarioError, load_scenario
-    from hyper_nav_sim.graph import apply_overrides
+    from hyper_nav_sim.core.scenario import ScenarioError, apply_overrides, load_scenario
     table = {"imu": {"type": "imu", "topic": "imu/data_raw"}, "gnss_raw": {"type": "gnss_raw", "topic": "gnss/raw"}}
     with pytest.raises(ScenarioError, match="needs the receiver clock block 'clk'"):
         apply_overrides(load_scenario("seed004"), {"filter.sources": table}, tmp_path)

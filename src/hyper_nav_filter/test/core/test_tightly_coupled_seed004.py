@@ -26,8 +26,7 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources
 from hyper_nav_sim.core import simulate
-from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 
 DURATION_S = 200.0
 

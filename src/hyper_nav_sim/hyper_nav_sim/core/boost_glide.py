@@ -92,9 +92,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hyper_nav_filter.core import earth
+from hyper_nav_filter.core import atmosphere, earth
 
-from hyper_nav_filter.core import atmosphere
+from .boost_glide_config import Boost, FlightManeuver, FlightStart, Guidance, Vehicle, parse_flight
 from .trajectory import TruthSample, gauss_legendre_increments, inertial_rates
 
 G0 = earth.G0_MPS2
@@ -129,80 +129,6 @@ def _smooth_square(t, t0, period, ramp):
 
 
 # ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Vehicle:
-    mass_kg: float
-    s_ref_m2: float
-    cd0: float
-    k_induced: float
-    cl_alpha_per_rad: float = 1.6
-    c_l_min: float = 0.0
-    c_l_max: float = 3.0
-    bank_rate_max_radps: float = np.deg2rad(30.0)
-    bank_time_constant_s: float = 1.0
-    c_l_rate_max_per_s: float = 1.0
-    c_l_time_constant_s: float = 1.0
-    engine_isp_s: float = 1200.0
-    engine_thrust_max_n: float = 1.0e5
-
-    @property
-    def cl_star(self):
-        return float(np.sqrt(self.cd0 / self.k_induced))
-
-    @property
-    def cd_star(self):
-        return 2.0 * self.cd0
-
-    @property
-    def e_star(self):
-        return 1.0 / (2.0 * np.sqrt(self.cd0 * self.k_induced))
-
-
-@dataclass(frozen=True)
-class FlightStart:
-    lat_rad: float
-    lon_rad: float
-    alt_m: float
-    speed_mps: float
-    gamma_rad: float
-    psi_rad: float
-
-
-@dataclass(frozen=True)
-class Boost:
-    thrust_n: float
-    burn_time_s: float
-    mass_flow_kgps: float
-    vertical_s: float = 5.0
-    pitch_over_s: float = 10.0
-    pitch_kick_rad: float = np.deg2rad(3.0)
-    tail_off_s: float = 3.0
-    blend_s: float = 20.0
-
-
-@dataclass(frozen=True)
-class Guidance:
-    altitude_mode: str = "equilibrium_glide"
-    k_gamma_per_s: float = 0.03
-    k_h_per_s: float = 0.015
-    gamma_limit_rad: float = np.deg2rad(10.0)
-    n_vert_min_g: float = 0.05
-    k_speed_per_s: float = 0.05
-
-
-@dataclass(frozen=True)
-class FlightManeuver:
-    type: str
-    t_start_s: float
-    t_end_s: float
-    load_g: float = 0.0
-    period_s: float = 100.0
-    ramp_s: float = 5.0
-    delta_alt_m: float = 0.0
-    gamma_rad: float = 0.0
-    delta_speed_mps: float = 0.0
-
-
 @dataclass
 class _Segment:
     t0: float
@@ -228,40 +154,6 @@ def _square1(t, t0, period, ramp):
 
 def _cross1(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _density1(z):
-    """Scalar fast path of ``atmosphere.density_kgpm3``."""
-    if z > atmosphere.Z_TOP_LAYERS_M:
-        return float(atmosphere.density_kgpm3(z))
-    H = atmosphere.R0_M * z / (atmosphere.R0_M + z)
-    hb = atmosphere._H_B
-    i = 0
-    while i < 6 and H >= hb[i + 1]:
-        i += 1
-    Tb, Pb, Lb = atmosphere._T_B[i], atmosphere._P_B[i], atmosphere._L_B[i]
-    dh = H - hb[i]
-    T = Tb + Lb * dh
-    c = atmosphere.G0 * atmosphere.M0 / atmosphere.R_STAR
-    P = Pb * math.exp(-c * dh / Tb) if Lb == 0.0 else Pb * (Tb / T) ** (c / Lb)
-    return P * atmosphere.M0 / (atmosphere.R_STAR * T)
-
-
-def _alt_for_rho1(rho):
-    """Scalar fast path of ``atmosphere.altitude_for_density_m``."""
-    rb = atmosphere._RHO_B
-    if rho < atmosphere._UPPER[0, 3]:
-        return float(atmosphere.altitude_for_density_m(rho))
-    i = 0
-    while i < 6 and rho <= rb[i + 1]:
-        i += 1
-    Tb, Lb, Hb = atmosphere._T_B[i], atmosphere._L_B[i], atmosphere._H_B[i]
-    c = atmosphere._C
-    if Lb == 0.0:
-        H = Hb - Tb * math.log(rho / rb[i]) / c
-    else:
-        H = Hb + (Tb * (rho / rb[i]) ** (-1.0 / (c / Lb + 1.0)) - Tb) / Lb
-    return atmosphere.R0_M * H / (atmosphere.R0_M - H)
 
 
 def attitude_angles(C_b_n):
@@ -319,7 +211,6 @@ class DynamicTrajectory:
     def from_config(cls, d: dict) -> "DynamicTrajectory":
         """Build from a plain dict (a scenario's ``flight:`` section); see
         ``boost_glide_config`` for the fields. Raises ValueError naming the field."""
-        from .boost_glide_config import parse_flight
         return cls(**parse_flight(d))
 
     # ---- programs -----------------------------------------------------------
@@ -530,7 +421,7 @@ class DynamicTrajectory:
         nw = math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
         yv = (w[0] / nw, w[1] / nw, w[2] / nw)
         zv = _cross1(xv, yv)
-        rho = _density1(alt)
+        rho = atmosphere.density_kgpm3_scalar(alt)
         qS = 0.5 * rho * V * V * veh.s_ref_m2
         L = qS * veh.cl_star * cl
         D = qS * veh.cd_star * 0.5 * (cl * cl + 1.0)
@@ -586,7 +477,7 @@ class DynamicTrajectory:
         else:
             rho_ref = 2.0 * m * max(g_eff, 0.05) / (V * V * veh.s_ref_m2 * veh.cl_star
                                                     * float(np.interp(t, self._cl_t, self._cl_v)))
-            h_ref = _alt_for_rho1(rho_ref) + dh
+            h_ref = atmosphere.altitude_for_density_m_scalar(rho_ref) + dh
         gam_cmd = min(max(gd.k_h_per_s * (h_ref - alt) / V, -gd.gamma_limit_rad), gd.gamma_limit_rad)
         gam_cmd = (1.0 - w_dive) * gam_cmd + w_dive * g_dive
         n_vert = max((g_eff * cgam + V * gd.k_gamma_per_s * (gam_cmd - gam)) / G0, gd.n_vert_min_g)

@@ -1,6 +1,7 @@
 """Configuration layer of ``DynamicTrajectory``: plain dicts (a scenario
-YAML's ``flight:`` section) -> constructor arguments, and example flights
-from the seed papers.
+YAML's ``flight:`` section) -> its typed constructor arguments (``Vehicle``,
+``FlightStart``, ``Boost``, ``Guidance``, ``FlightManeuver``). The flights
+themselves are written once, in the scenario files' ``flight:`` blocks.
 
 Fields (units in the names; angles in degrees)::
 
@@ -37,13 +38,87 @@ Fields (units in the names; angles in degrees)::
 """
 from __future__ import annotations
 
-import copy
+from dataclasses import dataclass
 
 import numpy as np
 
 from .fields import check_keys
 
 _MISSING = object()
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    mass_kg: float
+    s_ref_m2: float
+    cd0: float
+    k_induced: float
+    cl_alpha_per_rad: float = 1.6
+    c_l_min: float = 0.0
+    c_l_max: float = 3.0
+    bank_rate_max_radps: float = np.deg2rad(30.0)
+    bank_time_constant_s: float = 1.0
+    c_l_rate_max_per_s: float = 1.0
+    c_l_time_constant_s: float = 1.0
+    engine_isp_s: float = 1200.0
+    engine_thrust_max_n: float = 1.0e5
+
+    @property
+    def cl_star(self):
+        return float(np.sqrt(self.cd0 / self.k_induced))
+
+    @property
+    def cd_star(self):
+        return 2.0 * self.cd0
+
+    @property
+    def e_star(self):
+        return 1.0 / (2.0 * np.sqrt(self.cd0 * self.k_induced))
+
+
+@dataclass(frozen=True)
+class FlightStart:
+    lat_rad: float
+    lon_rad: float
+    alt_m: float
+    speed_mps: float
+    gamma_rad: float
+    psi_rad: float
+
+
+@dataclass(frozen=True)
+class Boost:
+    thrust_n: float
+    burn_time_s: float
+    mass_flow_kgps: float
+    vertical_s: float = 5.0
+    pitch_over_s: float = 10.0
+    pitch_kick_rad: float = np.deg2rad(3.0)
+    tail_off_s: float = 3.0
+    blend_s: float = 20.0
+
+
+@dataclass(frozen=True)
+class Guidance:
+    altitude_mode: str = "equilibrium_glide"
+    k_gamma_per_s: float = 0.03
+    k_h_per_s: float = 0.015
+    gamma_limit_rad: float = np.deg2rad(10.0)
+    n_vert_min_g: float = 0.05
+    k_speed_per_s: float = 0.05
+
+
+@dataclass(frozen=True)
+class FlightManeuver:
+    type: str
+    t_start_s: float
+    t_end_s: float
+    load_g: float = 0.0
+    period_s: float = 100.0
+    ramp_s: float = 5.0
+    delta_alt_m: float = 0.0
+    gamma_rad: float = 0.0
+    delta_speed_mps: float = 0.0
 
 
 def _num(d, key, path, default=_MISSING, positive=False, nonneg=False):
@@ -88,7 +163,6 @@ _MAN_DEFAULTS = {  # type -> allowed parameter defaults
 
 def parse_flight(d: dict) -> dict:
     """Validate a flight dict and return ``DynamicTrajectory`` keyword arguments."""
-    from .boost_glide import Boost, FlightManeuver, FlightStart, Guidance, Vehicle
     _check_keys(d, _TOP, "flight.")
     p = "flight."
     duration = _num(d, "duration_s", p, positive=True)
@@ -195,130 +269,3 @@ def parse_flight(d: dict) -> dict:
     end_alt = _num(d, "end_alt_m", p, 0.0) if d.get("end_alt_m", 0.0) is not None else None
     return dict(start=start, vehicle=veh, maneuvers=mans, duration_s=duration, c_l_program=clp,
                 guidance=guid, boost=boost, end_speed_mps=end_speed, end_alt_m=end_alt)
-
-
-# ---------------------------------------------------------------------------
-# Example flights. Vehicle: CAV-H, the data set seed 002 trains on (its ref.
-# [24]): 907 kg, S_ref 0.4839 m^2 (public CAV-H numbers). C_D0 = 0.045 and
-# K = 0.62 are our choice (the paper gives none): C_L* = 0.269, E* = 2.99,
-# a typical maximum L/D of a hypersonic glider. cl_alpha 1.6 /rad puts
-# alpha* (c_l = 1) at 9.6 deg; c_l_max = 3.5 is alpha = 34 deg (upper end of
-# a linear lift curve, needed for the paper's 3-5 g lateral loads).
-CAV_H = {"mass_kg": 907.0, "s_ref_m2": 0.4839, "cd0": 0.045, "k_induced": 0.62,
-         "cl_alpha_per_rad": 1.6, "c_l_max": 3.5}
-
-# Seed 002 Table 1 initial conditions; v_f = 2000 m/s is the terminal speed.
-# Physics note: the paper's sustained 3 g / 5 g lateral loads cost drag
-# D = L/(L/D) >= 1 g with L/D <= E* = 3, i.e. >= 10 m/s^2 of deceleration,
-# so the flights reach v_f = 2000 m/s before the end of the paper's maneuver
-# windows (the flight then ends: ``duration_s`` is the time at v_f).
-# Nominal c_l well below 1 (glide below the max-L/D altitude, at 3-4 times
-# the dynamic pressure) is our choice so that the 3 g and 5 g loads fit under
-# c_l_max: in an equilibrium glide the lift is only (1 - V^2/(g r)) g, so a
-# lateral load of n g needs c_l ~ c_l_nom n / (1 - V^2/(g r)).
-_SEED002_START = {"lat_deg": 0.0, "lon_deg": 0.0, "alt_m": 60000.0, "speed_mps": 7010.0,
-                  "gamma_deg": -1.0, "psi_deg": 90.0}
-SEED002_SCENARIO1 = {
-    "name": "seed002_scenario1",
-    "description": "QEG with varying c_l; lateral 3 g CA maneuver 701-1300 s",
-    **CAV_H, "duration_s": 2500.0, "end_speed_mps": 2000.0, "start": dict(_SEED002_START),
-    # "varying normalized lift coefficient": our program, 0.35 -> 0.2
-    # (the lower c_l, the denser the glide air and the more lift margin
-    # for the 3 g turn under c_l_max; see the note above)
-    "c_l_program": [[0.0, 0.35], [600.0, 0.2]],
-    "maneuvers": [{"type": "lateral_ca", "t_start_s": 701.0, "t_end_s": 1300.0, "load_g": 3.0}],
-}
-SEED002_SCENARIO2 = {
-    "name": "seed002_scenario2",
-    "description": "QEG with constant c_l; 1 g square wave 0-1200 s, 5 g evasive 1201-1800 s",
-    **CAV_H, "duration_s": 2500.0, "end_speed_mps": 2000.0, "start": dict(_SEED002_START),
-    "c_l_program": 0.3,
-    # square-wave period not in the paper: 200 s (100 s per side, a heading
-    # swing of a few degrees at these speeds); the evasive weave: 60 s period
-    "maneuvers": [{"type": "square_wave", "t_start_s": 0.0, "t_end_s": 1200.0, "load_g": 1.0,
-                   "period_s": 200.0},
-                  {"type": "evasive", "t_start_s": 1201.0, "t_end_s": 1800.0, "load_g": 5.0,
-                   "period_s": 60.0}],
-}
-SEED002_SCENARIO3 = {
-    "name": "seed002_scenario3",
-    "description": "QEG with varying c_l; 3 g CA 401-800 s, 5 g evasive after 1501 s",
-    **CAV_H, "duration_s": 2500.0, "end_speed_mps": 2000.0, "start": dict(_SEED002_START),
-    "c_l_program": [[0.0, 0.35], [350.0, 0.2]],
-    "maneuvers": [{"type": "lateral_ca", "t_start_s": 401.0, "t_end_s": 800.0, "load_g": 3.0},
-                  {"type": "evasive", "t_start_s": 1501.0, "load_g": 5.0, "period_s": 60.0}],
-}
-
-# Seed 003 section 4: glide at 25 km and 2000 m/s inside 40-48N 109-112E,
-# 790 s: accelerate, climb, glide at constant speed, turn left, turn right.
-# The paper gives no timetable, start point or heading: start at 41N 110.5E
-# heading north (to stay inside the magnetic map), altitude hold with a
-# speed-hold air-breathing engine (a 907 kg CAV-H loses ~3 m/s^2 to drag at
-# 25 km / Mach 6.8, so "constant speed" needs thrust); +200 m/s, +3 km climb,
-# 2 g turns of 100 s (about 33 deg each at ~2.2 km/s).
-SEED003 = {
-    "name": "seed003_glide_25km",
-    "description": "25 km, 2000 m/s, 790 s: accelerate / climb / glide / turn left / turn right",
-    **CAV_H, "duration_s": 790.0, "altitude_mode": "hold",
-    "start": {"lat_deg": 41.0, "lon_deg": 110.5, "alt_m": 25000.0, "speed_mps": 2000.0,
-              "gamma_deg": 0.0, "psi_deg": 0.0},
-    "engine_thrust_max_n": 30000.0,
-    "maneuvers": [
-        # engine on over the whole flight (window edges outside [0, 790] s)
-        {"type": "cruise", "t_start_s": -10.0, "t_end_s": 800.0},
-        {"type": "accelerate", "t_start_s": 50.0, "t_end_s": 150.0, "delta_speed_mps": 200.0},
-        {"type": "climb", "t_start_s": 200.0, "t_end_s": 300.0, "delta_alt_m": 3000.0},
-        {"type": "glide", "t_start_s": 300.0, "t_end_s": 450.0},
-        {"type": "turn_left", "t_start_s": 450.0, "t_end_s": 560.0, "load_g": 2.0, "ramp_s": 10.0},
-        {"type": "turn_right", "t_start_s": 620.0, "t_end_s": 730.0, "load_g": 2.0, "ramp_s": 10.0},
-    ],
-}
-
-# Seed 004: boost-glide from (26.5N, 119E), 500 s; the paper only gives the
-# point-mass equations (its eq. 12) and the start point. Our choices: launch
-# azimuth 60 deg (out to sea), a solid booster giving ~Mach 8 at burnout
-# (the paper: glide "generally not below Ma 7"), no stage separation
-# (the spent case stays on: mass after burnout 1400 kg), glide at c_l 0.8.
-SEED004 = {
-    "name": "seed004_boost_glide",
-    "description": "boost-glide from 26.5N 119E, 500 s (vertical launch, pull-up, glide)",
-    "mass_kg": 5000.0, "s_ref_m2": 0.8, "cd0": 0.045, "k_induced": 0.62, "cl_alpha_per_rad": 1.6,
-    "c_l_max": 3.0, "duration_s": 500.0, "c_l_program": 0.8,
-    "start": {"lat_deg": 26.5, "lon_deg": 119.0, "alt_m": 20.0, "speed_mps": 30.0,
-              "gamma_deg": 90.0, "psi_deg": 60.0},
-    "boost": {"thrust_n": 165000.0, "burn_time_s": 58.0, "mass_flow_kgps": 60.0, "vertical_s": 4.0,
-              "pitch_over_s": 30.0, "pitch_kick_deg": 26.0, "tail_off_s": 3.0, "blend_s": 20.0},
-}
-
-# Seed 001 (Chen et al., LCI SINS/BDS) boost-glide HWIL trajectory: its
-# Table 1 values are not in our copy of the text; launch site near Xi'an as in
-# its vehicle test (34.2N 108.8E), azimuth 90 deg, 560 s. Booster sized for a
-# ~Mach 13 burnout at 25 km (mass ratio 4, Isp ~ 280 s); a short coast to
-# 43 km (specific force 0.15-0.4 g from 100 to 160 s), pull-up, glide from
-# 43 to 33 km with a 1.5 g S-turn weave (period 90 s), terminal dive at 470 s. Depressed rather than lofted: the
-# first version (pitch kick 30 deg) coasted to 83 km for 220 s at zero g,
-# where tilt about the velocity and the roll-axis gyro bias are unobservable
-# from position/velocity fixes (attitude error 0.1-0.3 deg until re-entry).
-SEED001 = {
-    "name": "seed001_vertical_launch",
-    "description": "vertical launch, pitch-over, gravity turn, short coast, pull-up, weaving glide, dive",
-    "mass_kg": 8000.0, "s_ref_m2": 1.0, "cd0": 0.045, "k_induced": 0.62, "cl_alpha_per_rad": 1.6,
-    "c_l_max": 3.0, "duration_s": 560.0, "c_l_program": 0.8,
-    "start": {"lat_deg": 34.2, "lon_deg": 108.8, "alt_m": 400.0, "speed_mps": 30.0,
-              "gamma_deg": 90.0, "psi_deg": 90.0},
-    "boost": {"thrust_n": 260000.0, "burn_time_s": 75.0, "mass_flow_kgps": 90.0, "vertical_s": 4.0,
-              "pitch_over_s": 30.0, "pitch_kick_deg": 31.5, "tail_off_s": 3.0, "blend_s": 20.0},
-    # terminal dive window ends beyond the flight: no recovery
-    "maneuvers": [{"type": "s_turn", "t_start_s": 180.0, "t_end_s": 460.0, "load_g": 1.5, "period_s": 90.0},
-                  {"type": "dive", "t_start_s": 470.0, "t_end_s": 700.0, "gamma_deg": -30.0}],
-}
-
-FLIGHTS = {f["name"]: f for f in (SEED002_SCENARIO1, SEED002_SCENARIO2, SEED002_SCENARIO3,
-                                  SEED003, SEED004, SEED001)}
-
-
-def example_flight(name: str) -> dict:
-    """A deep copy of one of the example flight dicts (see ``FLIGHTS``)."""
-    if name not in FLIGHTS:
-        raise ValueError(f"unknown example flight {name!r} (known: {sorted(FLIGHTS)})")
-    return copy.deepcopy(FLIGHTS[name])

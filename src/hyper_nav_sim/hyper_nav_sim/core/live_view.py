@@ -5,9 +5,10 @@ messages live, rosbags messages from a bag). No rclpy, no foxglove here.
   (``gnss/fix``) as (t, lat_deg, lon_deg, alt_m, ENU covariance);
 * transforms: ``/tf`` and ``/tf_static`` entries as plain dicts;
 * errors: at every ``nav/state`` epoch that has a ``truth/state`` of the same
-  stamp (whichever arrives first), the estimate-minus-truth errors of position (ENU m), velocity (ENU
-  m/s) and attitude (ENU deg) with the filter's own 1-sigma from the
-  covariance (the numbers of ``errors.png``, live).
+  stamp (whichever arrives first), the estimate-minus-truth errors of
+  position (ENU m), velocity (ENU m/s) and attitude (ENU deg)
+  (``core.scoring``) with the filter's own 1-sigma from the covariance (the
+  numbers of ``errors.png``, live).
 """
 from __future__ import annotations
 
@@ -16,19 +17,14 @@ from collections import OrderedDict
 import numpy as np
 
 from hyper_nav_filter.conversions import stamp_to_s
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.attitude import attitude_error_n_rad, quat_xyzw_to_C
+
+from . import scoring
 
 _KEEP = 2000          # truth epochs kept for matching (the solution lags by output_delay_s)
 
 
 def stamp_ns(stamp) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-
-
-def _C(m) -> np.ndarray:
-    q = m.q_b_enu
-    return quat_xyzw_to_C([q.x, q.y, q.z, q.w])
 
 
 def navstate_point(m) -> dict:
@@ -109,10 +105,8 @@ class ErrorTracker:
     @staticmethod
     def record(m, tr) -> dict:
         """The error record of a solution ``m`` against the truth ``tr`` of its stamp."""
-        pos = earth.position_error_enu_m(m.lat_rad, tr.lon_rad + earth.wrap_lon_rad(m.lon_rad - tr.lon_rad), m.alt_m,
-                                         tr.lat_rad, tr.lon_rad, tr.alt_m)
-        vel = np.asarray(m.vel_enu_mps, float) - np.asarray(tr.vel_enu_mps, float)
-        att = np.rad2deg(attitude_error_n_rad(_C(m), _C(tr)))
+        e = scoring.state_errors(scoring.states_from_msgs([m]), scoring.states_from_msgs([tr]))
+        pos, vel, att = e["pos_enu_m"][0], e["vel_enu_mps"][0], e["att_enu_deg"][0]
         s = _sigmas(m)
         return {"t_s": stamp_to_s(m.header.stamp),
                 "pos_err_enu_m": pos.tolist(), "pos_sigma_enu_m": s["pos"].tolist(),

@@ -31,8 +31,7 @@ import time
 import numpy as np
 from scipy.stats import chi2
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.attitude import attitude_error_n_rad
+from . import scoring
 
 DRAWS = ("noise", "biases", "initial")
 KIND_DOF = {"gnss_pos": 3, "gnss_vel": 3}
@@ -79,18 +78,12 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
 
     from .. import offline_fly
     from . import simulate
-    from .scenario import Scenario, validate
+    from .scenario import Scenario, set_fields, validate
     cpu0 = time.process_time()
     base = Scenario(pathlib.Path("campaign.yaml"), copy.deepcopy(data))
     cfg = base.filter_config()
     over = draw_overrides(data, cfg, k, draws)
-    d = copy.deepcopy(data)
-    for dotted, value in over.items():
-        cur = d
-        parts = dotted.split(".")
-        for part in parts[:-1]:
-            cur = cur.setdefault(part, {})
-        cur[parts[-1]] = value
+    d = set_fields(copy.deepcopy(data), over)
     with tempfile.TemporaryDirectory(prefix="hyper_nav_mc_") as tmp:
         sc = Scenario(pathlib.Path(tmp) / "run.yaml", validate(d, f"run {k}"))
         traj = sc.trajectory()
@@ -111,14 +104,10 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
             nis_rows.append((next_grid, _nis_deltas(eng.kf.stats, last)))
             next_grid += 1.0 / grid_hz
     sols += [s for s in eng.release(final=True) if _on_grid(s.t_s, grid_hz)]
-    t = np.array([s.t_s for s in sols])
-    tr = traj.truth(t)
-    pos = np.array([earth.position_error_enu_m(s.state.lat_rad, s.state.lon_rad, s.state.alt_m,
-                                               tr.lat_rad[n], tr.lon_rad[n], tr.alt_m[n]) for n, s in enumerate(sols)])
-    vel = np.array([s.state.vel_enu_mps for s in sols]) - tr.vel_enu_mps
-    att = np.array([attitude_error_n_rad(s.state.C_b_n, tr.C_b_n[n]) for n, s in enumerate(sols)])
-    out = {"k": k, "seed": over.get("seed", data["seed"]), "draws": over, "t_s": t,
-           "err": {"pos": pos, "vel": vel, "att": att}, "sigma": {}, "nees": {}}
+    e = scoring.solution_errors(sols, traj)
+    out = {"k": k, "seed": over.get("seed", data["seed"]), "draws": over, "t_s": e["t"],
+           "err": {"pos": e["pos_enu_m"], "vel": e["vel_enu_mps"], "att": np.deg2rad(e["att_enu_deg"])},
+           "sigma": {}, "nees": {}}
     for b, e in out["err"].items():
         sl = lay.sl(b)
         P = np.array([s.P[sl, sl] for s in sols])

@@ -25,7 +25,6 @@ Validation rules (one place, applied to files and to ``--set`` overrides):
 from __future__ import annotations
 
 import copy
-import importlib
 import pathlib
 from dataclasses import dataclass, fields
 
@@ -35,6 +34,7 @@ import yaml
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
+from . import aiding_nodes
 from .fields import suggestion, unknown_field
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
@@ -109,8 +109,8 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world", "virtual_gnss",
-                   "geomag", "lever_arm_learning")
+# (and the aiding nodes' blocks: core.aiding_nodes, read from the installed descriptors)
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
             "graph.qos_depth",
@@ -121,17 +121,15 @@ NON_NEGATIVE = {"gnss.latency_s", "report.skip_s", "magnetometer.noise_nT", "imu
 RANGES = {"start.lat_deg": (-90.0, 90.0, "within (-90, 90)"), "start.lon_deg": (-180.0, 180.0, "within [-180, 180]")}
 MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
 # blocks whose nested content their own parser checks key by key (boost_glide_config,
-# hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids)
+# hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids);
+# the aiding nodes' blocks too (their descriptors' validators, see opaque_blocks)
 OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources",   # filter.sources: sources.parse_sources
-                 "world",                          # core.world.WorldConfig
-                 "virtual_gnss", "geomag", "lever_arm_learning"}   # hyper_nav_aiding's configs (AIDING_BLOCKS)
-# aiding blocks the aiding package validates (errors name the field): block -> (module, function)
-AIDING_BLOCKS = {"virtual_gnss": ("hyper_nav_aiding.core.virtual_gnss_config", "VirtualGnssConfig.from_config"),
-                 "geomag": ("hyper_nav_aiding.core.geomag_config", "GeomagConfig.from_dict"),
-                 "lever_arm_learning": ("hyper_nav_aiding.core.lever_arm.config", "LeverArmLearningConfig.from_block")}
-# an aiding block against the rest of the scenario (called with the whole data): the geomagnetic
-# map's epoch against magnetometer.epoch_decimal_year (issue 27)
-AIDING_SCENARIO_CHECKS = {"geomag": ("hyper_nav_aiding.core.map_epoch", "check_scenario")}
+                 "world"}                          # core.world.WorldConfig
+
+
+def opaque_blocks() -> set[str]:
+    """``OPAQUE_BLOCKS`` and the installed aiding nodes' blocks."""
+    return OPAQUE_BLOCKS | set(aiding_nodes.by_block())
 
 
 def known_fields() -> dict[str, frozenset]:
@@ -149,7 +147,7 @@ def known_fields() -> dict[str, frozenset]:
         parts = dotted.split(".")
         for i in range(len(parts)):
             tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
-    tree[""] |= set(OPTIONAL_BLOCKS)
+    tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block())
     tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED)
     tree["gnss"] |= {"raw"}
     tree["gnss.raw"] = set(receiver._TOP_FIELDS)
@@ -169,12 +167,13 @@ def check_known_keys(data: dict, path: str = "", tree: dict | None = None) -> No
     """ScenarioError (without the source) for the first unknown key anywhere in
     ``data``, with the nearest known name; maneuver entries too."""
     tree = known_fields() if tree is None else tree
+    opaque = opaque_blocks()
     allowed = tree.get(path)
     for key, value in data.items():
         child = f"{path}.{key}" if path else str(key)
         if allowed is not None and key not in allowed:
             raise ScenarioError(unknown_field(f"{path}." if path else "", key, allowed))
-        if child in OPAQUE_BLOCKS:
+        if child in opaque:
             continue
         if isinstance(value, dict) and child in tree:
             check_known_keys(value, child, tree)
@@ -189,10 +188,11 @@ def check_known_keys(data: dict, path: str = "", tree: dict | None = None) -> No
 def check_override_key(dotted: str, tree: dict | None = None) -> None:
     """ScenarioError if a ``--set`` field names no known field (with a suggestion)."""
     tree = known_fields() if tree is None else tree
+    opaque = opaque_blocks()
     parts = dotted.split(".")
     for i, part in enumerate(parts):
         parent = ".".join(parts[:i])
-        if parent in OPAQUE_BLOCKS or parent not in tree:
+        if parent in opaque or parent not in tree:
             return
         if part not in tree[parent]:
             hint = suggestion(part, tree[parent])
@@ -527,30 +527,18 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 msg = str(exc)
                 raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
-    for block, (module, func) in AIDING_BLOCKS.items():
+    for block, node in aiding_nodes.by_block().items():
         if block not in data:
             continue
-        try:        # the aiding package validates its own block (errors name the field)
-            obj = importlib.import_module(module)
-        except ImportError:         # hyper_nav_aiding not installed: its nodes cannot run either
-            continue
-        for attr in func.split("."):
-            obj = getattr(obj, attr)
-        try:
-            obj(data[block])
+        try:        # the node's package validates its own block (errors name the field)
+            node.validate(data[block])
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
-    for block, (module, func) in AIDING_SCENARIO_CHECKS.items():
-        if block not in data:
-            continue
-        try:
-            check = getattr(importlib.import_module(module), func)
-        except ImportError:         # hyper_nav_aiding not installed
-            continue
-        try:
-            check(data)
-        except ValueError as exc:
-            raise ScenarioError(f"{source}: {exc}") from None
+        if node.validate_scenario is not None:
+            try:    # the block against the rest of the scenario (e.g. a map's epoch against the flight's date)
+                node.validate_scenario(data)
+            except ValueError as exc:
+                raise ScenarioError(f"{source}: {exc}") from None
     if "tracker" in data:
         from hyper_nav_filter.core.tracking.config import TrackerConfig
         try:
@@ -636,3 +624,63 @@ def load_scenario(name_or_path: str) -> Scenario:
     path = find_scenario(str(name_or_path))
     raw = _resolve_extends(_read_yaml(path), pathlib.Path(path).resolve())
     return Scenario(path, validate(raw, str(path)))
+
+
+# ---- scenarios of runs: overrides, the scenario a bag was recorded with, the fusion node's inputs ----
+def set_fields(data: dict, values: dict) -> dict:
+    """``data`` with the dotted fields of ``values`` set in place
+    ({"imu.rate_hz": 100.0}); a value None removes the field (``--set
+    maneuvers=null``). Returns ``data``."""
+    for dotted, value in values.items():
+        parts = dotted.split(".")
+        cur = data
+        for part in parts[:-1]:
+            cur = cur.setdefault(part, {})
+        if value is None:
+            cur.pop(parts[-1], None)
+        else:
+            cur[parts[-1]] = value
+    return data
+
+
+def apply_overrides(sc: Scenario, overrides: dict | None, workdir: pathlib.Path) -> Scenario:
+    """A copy of the scenario with dotted-field overrides, validated and
+    written to workdir so that every node reads the same file."""
+    tree = known_fields()
+    for dotted in overrides or {}:
+        check_override_key(dotted, tree)
+    data = set_fields(copy.deepcopy(sc.data), overrides or {})
+    path = pathlib.Path(workdir) / f"{data['name']}.yaml"
+    data = validate(data, str(path))
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return Scenario(path, data)
+
+
+def bag_scenario(bag) -> str:
+    """The scenario a bag was recorded with (``scenario.yaml`` beside it, as
+    ``run_graph`` writes it), else the default scenario."""
+    path = pathlib.Path(bag) / "scenario.yaml"
+    return str(path) if path.is_file() else "default"
+
+
+def load_with_settings(name_or_path: str, settings=()) -> Scenario:
+    """``load_scenario`` with ``settings`` applied ("FIELD=VALUE" strings,
+    YAML values, as a command's ``--set`` gives them)."""
+    import tempfile
+    sc = load_scenario(name_or_path)
+    overrides = {k: yaml.safe_load(v) for k, _, v in (str(s).partition("=") for s in settings)}
+    if overrides:
+        sc = apply_overrides(sc, overrides, pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_scenario_")))
+    return sc
+
+
+def scenario_of_run(bag, scenario: str | None = None, settings=()) -> Scenario:
+    """The scenario to score or replay a recorded run with: ``scenario`` (a
+    name or path), else the bag's own (``bag_scenario``), with ``settings``."""
+    return load_with_settings(scenario or bag_scenario(bag), settings)
+
+
+def fusion_inputs(sc: Scenario) -> set[str]:
+    """Topics the fusion node subscribes: those of the scenario's declared sources."""
+    return {i.topic.lstrip("/") for src in make_sources(sc.filter_source_specs(), sc.filter_config())
+            for i in src.inputs()}

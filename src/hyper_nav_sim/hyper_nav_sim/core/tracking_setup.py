@@ -1,17 +1,56 @@
 """Scenario -> target tracker: the tracker's configuration (the scenario's
 ``tracker:`` block, with the radar noise of its ``radar:`` block), the
 tracker node's ROS parameters, and the truth/radar track of the scenario's
-flight for offline runs."""
+flight for offline runs.
+
+``truth_track(traj, t)`` gives the filter's state and input along a flight:
+x = [alt, lon, lat, V, gamma, psi, 0] (geodetic, relative to the rotating
+Earth: what the radar measures) and u = [lambda1, lambda2, T_chi] from the
+flown c_l and bank angle (seed 002 eqs. 14, 17); the T_chi label is half the
+period of a weave/square wave (the time between direction changes), else the
+nominal T_chi.
+"""
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
+from hyper_nav_filter.core.tracking import glide_model as gm
 from hyper_nav_filter.core.tracking.config import TrackerConfig
 
 from .imu_model import imu_epochs
 from .radar import EarlyWarningRadar
 from .scenario import Scenario
-from .tracking_data import Track, truth_track
+
+PERIODIC = ("square_wave", "evasive", "s_turn")
+
+
+@dataclass
+class Track:
+    t_s: np.ndarray          # (N,) radar epochs
+    x: np.ndarray            # (N, 7) physical truth state
+    u: np.ndarray            # (N, 3) true inputs
+    flight: dict
+
+
+def t_chi_label(t_s, maneuvers, nominal_s: float) -> np.ndarray:
+    out = np.full(np.shape(t_s), float(nominal_s))
+    for m in maneuvers:
+        if m["type"] in PERIODIC:
+            inside = (t_s >= m["t_start_s"]) & (t_s <= m.get("t_end_s", np.inf))
+            out[inside] = 0.5 * m["period_s"]
+    return out
+
+
+def truth_track(traj, t_s, maneuvers=(), nominal_t_chi_s: float = 100.0):
+    """(x (N, 7), u (N, 3)) along a flight at the epochs t_s (see module doc)."""
+    t_s = np.asarray(t_s, float)
+    f = traj.flight(t_s)
+    Y = traj.state(t_s)
+    x = np.stack([Y[2], Y[1], Y[0], f["V"], f["gamma"], f["psi"], np.zeros_like(t_s)], axis=-1)
+    u = gm.true_inputs(f["c_l"], f["sigma"], t_chi_label(t_s, maneuvers, nominal_t_chi_s))
+    return x, u
 
 
 def tracker_config(sc: Scenario, **overrides) -> TrackerConfig:

@@ -20,6 +20,8 @@ DIAG_PERIOD = ParamSpec("diagnostics_period_s", FLOAT, 1.0, "wall-clock period o
 SENSOR = (
     ParamSpec("min_subscribers", INT, 0, "matched subscriptions each publisher waits for before data flows",
               lo=0),
+    ParamSpec("wait_topics", STRS, (), "topics whose publishers wait for their own count (wait_counts) "
+              "instead of min_subscribers"),
     ParamSpec("qos.depth", INT, 2000, "publisher history depth (graph.qos_depth)", lo=1),
     DIAG_PERIOD,
 )

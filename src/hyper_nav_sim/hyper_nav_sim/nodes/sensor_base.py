@@ -2,7 +2,9 @@
 
 A sensor node loads the scenario, computes its own measurement stream from
 the deterministic truth (``hyper_nav_sim.core``), waits until each of its
-publishers has ``min_subscribers`` matched subscriptions, then subscribes to
+publishers has ``min_subscribers`` matched subscriptions (a topic of
+``wait_topics``: its own count of ``wait_counts``, when its consumers are
+not those of the node's other topics), then subscribes to
 ``/clock`` and publishes every sample whose release time (epoch + latency)
 has been reached. ``header.stamp`` is always the measurement epoch.
 
@@ -32,6 +34,11 @@ class ClockDrivenSensor(Node):
         self.scenario = load_scenario(declare_params(self, (SCENARIO,))["scenario"])
         p = declare_params(self, with_scenario(SENSOR, self.scenario, SENSOR_FROM_SCENARIO))
         self.min_subscribers = p["min_subscribers"]
+        self.declare_parameter("wait_counts", [0])
+        counts = list(self.get_parameter("wait_counts").value) if p["wait_topics"] else []
+        if len(counts) != len(p["wait_topics"]):
+            raise ValueError(f"wait_counts {counts} must give one count per wait_topics entry {p['wait_topics']}")
+        self.waits = {t.lstrip("/"): int(n) for t, n in zip(p["wait_topics"], counts)}
         self.qos = publisher_qos(p["qos.depth"])
         self.latency_s = 0.0
         self.status = NodeStatus(self, f"hyper_nav_sim: {name}")
@@ -64,7 +71,8 @@ class ClockDrivenSensor(Node):
 
     def _start_when_ready(self):
         for entry in self.publishers_to_match():
-            pub, need = entry if isinstance(entry, tuple) else (entry, self.min_subscribers)
+            pub, need = entry if isinstance(entry, tuple) else \
+                (entry, self.waits.get(entry.topic_name.lstrip("/"), self.min_subscribers))
             if pub.get_subscription_count() < need:
                 return
         self._wait_timer.cancel()

@@ -1,29 +1,45 @@
 """Point-mass boost-glide dynamics (boost_glide.py): flight mechanics of the
 seed flights, exact IMU (finite differences, error-free mechanization)."""
+import copy
+import pathlib
+
 import numpy as np
 import pytest
+import yaml
 
 from hyper_nav_filter.core import earth, mechanization
 from hyper_nav_filter.core.attitude import attitude_error_n_rad
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core.boost_glide import DynamicTrajectory
-from hyper_nav_sim.core.boost_glide_config import FLIGHTS, example_flight, parse_flight
+from hyper_nav_sim.core.boost_glide_config import parse_flight
+from hyper_nav_sim.core.scenario import load_scenario, scenario_dirs
 from hyper_nav_sim.core.trajectory import TruthSample
+
+# the scenarios that fly a ``flight:`` block (the flights are written once, there)
+FLIGHTS = sorted({p.stem for d in scenario_dirs() for p in d.glob("*.yaml")
+                  if "flight:" in p.read_text()}, key=str)
+# seed 003's flight read literally (no scenario flies it): the dynamics tests' own flight file
+SEED003_LITERAL = pathlib.Path(__file__).with_name("seed003_glide_25km_flight.yaml")
+
+
+def example_flight(scenario: str) -> dict:
+    """A copy of a scenario's ``flight:`` block."""
+    return copy.deepcopy(load_scenario(scenario).data["flight"])
 
 
 @pytest.fixture(scope="module")
 def s1():
-    return DynamicTrajectory.from_config(example_flight("seed002_scenario1"))
+    return DynamicTrajectory.from_config(example_flight("seed002_s1"))
 
 
 @pytest.fixture(scope="module")
 def s003():
-    return DynamicTrajectory.from_config(example_flight("seed003_glide_25km"))
+    return DynamicTrajectory.from_config(yaml.safe_load(SEED003_LITERAL.read_text()))
 
 
 @pytest.fixture(scope="module")
 def launch():
-    return DynamicTrajectory.from_config(example_flight("seed001_vertical_launch"))
+    return DynamicTrajectory.from_config(example_flight("seed001"))
 
 
 def fd_check(traj, t, h=1e-4, atol_w=1e-8, atol_f=1e-5):
@@ -170,18 +186,18 @@ def test_all_example_flights_parse():
     ({"bogus_field": 1}, "flight.bogus_field"),
 ])
 def test_bad_config_names_the_field(patch, field):
-    d = example_flight("seed002_scenario1")
+    d = example_flight("seed002_s1")
     d.update(patch)
     with pytest.raises(ValueError, match=field):
         DynamicTrajectory.from_config(d)
 
 
 def test_bad_start_names_the_field():
-    d = example_flight("seed001_vertical_launch")
+    d = example_flight("seed001")
     del d["start"]["psi_deg"]
     with pytest.raises(ValueError, match="flight.start.psi_deg"):
         DynamicTrajectory.from_config(d)
-    d = example_flight("seed001_vertical_launch")
+    d = example_flight("seed001")
     d["boost"]["burn_time_s"] = 0
     with pytest.raises(ValueError, match="flight.boost.burn_time_s"):
         DynamicTrajectory.from_config(d)

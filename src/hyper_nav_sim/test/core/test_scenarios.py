@@ -8,8 +8,7 @@ import pytest
 
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.gnss.lock import LockConfig
-from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from hyper_nav_sim.plot import all_scenario_names, plot_scenario
 
 PAPER_SCENARIOS = ["default", "seed000_elastic", "seed001", "seed002_s1", "seed002_s2", "seed002_s3",

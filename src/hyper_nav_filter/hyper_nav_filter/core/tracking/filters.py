@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 
 from . import aekf, ekf, imm
-from .config import TrackerConfig
+from .config import FILTER_TYPES, TrackerConfig
 from .lekf import Lekf, LekfArch
 
 
@@ -67,7 +67,7 @@ def _lekf(cfg: TrackerConfig, lekf):
     return TrackFilter("LEKF", net.init_carry, step)
 
 
-_BUILDERS = {"EKF": _ekf, "AEKF": _aekf, "IMM": _imm, "LEKF": _lekf}
+_BUILDERS = dict(zip(FILTER_TYPES, (_ekf, _aekf, _lekf, _imm)))      # the names: config.FILTER_TYPES
 
 
 def build_filter(cfg: TrackerConfig, lekf: tuple[LekfArch, dict] | None = None,

@@ -1,15 +1,17 @@
 """Solutions against a truth table sampled at other epochs: the truth is
 interpolated to each solution epoch (position and velocity linearly,
 attitude by spherical linear interpolation, scipy's Slerp); epochs outside
-the truth's span are left out. Returns the same error dict as
-``hyper_nav_sim.report.errors`` (pos_enu_m, vel_enu_mps, att_enu_deg)."""
+the truth's span are left out. The errors are ``core.scoring``'s
+(pos_enu_m, vel_enu_mps, att_enu_deg)."""
 from __future__ import annotations
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.attitude import attitude_error_n_rad, euler_to_C_b_n
+from hyper_nav_filter.core.attitude import euler_to_C_b_n
+
+from .. import scoring
 
 
 def truth_at(truth, t_s: np.ndarray) -> dict:
@@ -26,13 +28,9 @@ def truth_at(truth, t_s: np.ndarray) -> dict:
 
 
 def errors_against(nav: dict, truth) -> dict:
-    """Errors (estimate - truth) of solution arrays ``nav`` (report.states_from_solutions)."""
+    """Errors (estimate - truth) of solution states ``nav`` (``scoring.states_from_solutions``)."""
     tr = truth_at(truth, nav["t"])
     keep = np.isin(np.round(nav["t"] * 1e6), np.round(tr["t"] * 1e6))
     if not keep.any():
         raise ValueError(f"no solution epoch inside the truth's span [{truth.t_s[0]}, {truth.t_s[-1]}] s")
-    n = {k: v[keep] for k, v in nav.items()}
-    dlon = earth.wrap_lon_rad(n["lon"] - tr["lon"])
-    pos = earth.position_error_enu_m(n["lat"], tr["lon"] + dlon, n["alt"], tr["lat"], tr["lon"], tr["alt"])
-    att = np.array([attitude_error_n_rad(a, b) for a, b in zip(n["C"], tr["C"])])
-    return {"t": n["t"], "pos_enu_m": pos, "vel_enu_mps": n["vel"] - tr["vel"], "att_enu_deg": np.rad2deg(att)}
+    return scoring.state_errors({k: v[keep] for k, v in nav.items()}, tr)

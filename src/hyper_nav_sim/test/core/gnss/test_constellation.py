@@ -9,7 +9,7 @@ import pytest
 
 from hyper_nav_filter.core import earth
 from hyper_nav_sim.core.gnss import constellation as cs
-from hyper_nav_sim.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import ephemeris as ep
 
 _spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
 data = importlib.util.module_from_spec(_spec)

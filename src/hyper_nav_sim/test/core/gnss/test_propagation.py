@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hyper_nav_sim.core.gnss.propagation import (C_MPS, F_B1I_HZ, F_L1_HZ, hopfield_delay_m,
+from hyper_nav_filter.core.gnss.propagation import (C_MPS, F_B1I_HZ, F_L1_HZ, hopfield_delay_m,
                                                  klobuchar_delay_m)
 
 ALPHA_2021 = [0.9313e-08, 0.1490e-07, -0.5960e-07, -0.1192e-06]   # brdc1180.21n header

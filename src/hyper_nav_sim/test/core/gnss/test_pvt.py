@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hyper_nav_filter.core import earth
-from hyper_nav_sim.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import ephemeris as ep
 from hyper_nav_sim.core.gnss import observables as ob
 from hyper_nav_sim.core.gnss.constellation import visible_satellites
 from hyper_nav_sim.core.gnss.pvt import solve_pvt

@@ -19,10 +19,9 @@ from hyper_nav_filter.core.attitude import attitude_error_n_rad  # noqa: E402
 from hyper_nav_filter.core.params import ConfigError  # noqa: E402
 from hyper_nav_filter.filter_setup import FilterSetup  # noqa: E402
 from hyper_nav_filter.offline import run_offline  # noqa: E402
-from hyper_nav_sim import import_data, offline_fly, report  # noqa: E402
+from hyper_nav_sim import import_data, offline_fly, replay_filter  # noqa: E402
 from hyper_nav_sim.core.bag import deserialize, read_bag  # noqa: E402
-from hyper_nav_sim.core.scenario import load_scenario  # noqa: E402
-from hyper_nav_sim.graph import apply_overrides  # noqa: E402
+from hyper_nav_sim.core.scenario import apply_overrides, load_scenario  # noqa: E402
 
 DURATION_S = 10.0
 
@@ -60,7 +59,7 @@ def test_imported_kfgins_files_reproduce_the_native_run(imported):
 def test_replay_filter_scores_against_the_truth_file_and_writes_kfgins_formats(imported, capsys):
     sc, d, native, traj = imported
     nav_out, std_out = d / "out.nav", d / "out_std.txt"
-    assert report.replay_main([str(d / "bag"), "--truth", str(d / "truth.nav"), "--write-nav", str(nav_out),
+    assert replay_filter.main([str(d / "bag"), "--truth", str(d / "truth.nav"), "--write-nav", str(nav_out),
                                "--write-std", str(std_out)]) == 0
     text = capsys.readouterr().out
     assert "accuracy after t >= 5 s" in text

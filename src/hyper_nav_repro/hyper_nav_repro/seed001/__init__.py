@@ -1,0 +1,1 @@
+"""Seed 001 (SINS/BDS in the launch-centred inertial frame) reproduction."""

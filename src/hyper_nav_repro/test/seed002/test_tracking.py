@@ -1,0 +1,116 @@
+"""Seed 002 trackers against the simulator's flights: EKF consistency on a
+non-maneuvering glide, end-to-end training lowers the loss, the shipped
+L-EKF parameters reproduce the reported Table 2 figures, the reproduction's
+short mode."""
+import json
+import pathlib
+
+import jax
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from hyper_nav_filter.core.tracking import filters
+from hyper_nav_filter.core.tracking import glide_model as gm
+from hyper_nav_filter.core.tracking import params_store
+from hyper_nav_filter.core.tracking.config import TrackerConfig
+from hyper_nav_filter.core.tracking.lekf import Lekf, LekfArch
+from hyper_nav_filter.core.tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
+from hyper_nav_repro.seed002 import reproduce as repro_seed002
+from hyper_nav_repro.seed002 import training_set as td
+
+REPO = pathlib.Path(__file__).resolve().parents[4]
+RADAR_SIGMA = np.array([2000.0, 0.01, 0.01])
+
+
+def test_ekf_is_consistent_on_a_non_maneuvering_glide():
+    """30 Monte Carlo runs of radar noise over a 700 s glide at c_l = 0.3 (no
+    lateral maneuver) flown by the simulator (rotating WGS-84 Earth, US76):
+    the filter's Q covers its model's mismatch (exponential atmosphere,
+    sphere, no Coriolis) as white noise. The MC-averaged NEES of the six
+    kinematic states, 30 * NEES ~ chi2(180), stays in its 95 % band."""
+    flight = {**td.vehicle(), "duration_s": 700.0, "end_speed_mps": 2000.0, "c_l_program": 0.3, "maneuvers": [],
+              "start": {"lat_deg": 5.0, "lon_deg": 30.0, "alt_m": 47000.0, "speed_mps": 6900.0, "gamma_deg": -0.1,
+                        "psi_deg": 60.0}}
+    tr = td.fly(flight)
+    cfg = TrackerConfig(filter_type="EKF", nominal_c_l=0.3, q_h_m=1.0, q_lonlat_rad=1e-7, q_v_mps=3.0,
+                        q_gamma_rad=1e-3, q_psi_rad=5e-4, q_chi=0.01, init_sigma_chi=0.01)
+    runs, n = 30, len(tr.t_s)
+    rng = np.random.default_rng(11)
+    Z = tr.x[None, :, :3] + RADAR_SIGMA * rng.standard_normal((runs, n, 3))
+    x0 = gm.to_scaled(tr.x[0])[None] + rng.standard_normal((runs, 7)) * np.sqrt(np.diag(cfg.P0))
+    x0[:, 6] = 0.0
+    DT = np.ones((n, runs))
+    DT[0] = 0.0
+    _, out = filters.run_batch(filters.build_filter(cfg), x0, np.repeat(cfg.P0[None], runs, 0),
+                               np.swapaxes(gm.measurement_to_scaled(Z), 0, 1), DT)
+    e = np.asarray(out["x"], float)[..., :6] - gm.to_scaled(tr.x)[:, None, :6]
+    P = np.asarray(out["P"], float)[..., :6, :6]
+    nees = np.einsum("tbi,tbij,tbj->tb", e, np.linalg.inv(P), e).mean(axis=1)[100:]
+    lo, hi = chi2.ppf([0.025, 0.975], 6 * runs) / runs
+    assert lo < nees.mean() < hi, (lo, nees.mean(), hi)            # measured 5.73 in [4.82, 7.30]
+    assert np.mean((nees > lo) & (nees < hi)) > 0.6                # measured 0.75 of the epochs
+
+
+@pytest.mark.slow
+def test_training_through_the_filter_lowers_the_loss():
+    """End-to-end training (RMSprop, weighted MAE, TBPTT through the L-EKF
+    recursion) on four short simulated glides: the loss on those tracks (fixed
+    noise, running BN averages) falls below the untrained L-EKF's, which is
+    the EKF's."""
+    rng = np.random.default_rng(3)
+    flights = [td.random_flight(np.random.default_rng([77, i])) for i in range(4)]
+    for f in flights:
+        f["duration_s"] = 160.0
+    tracks = [td.fly(f) for f in flights]
+    X, U, L = td.stack(tracks)
+    cfg = TrackerConfig(q_v_mps=30.0, q_gamma_rad=3e-3, q_psi_rad=3e-2)
+    arch = LekfArch(imn_dense=(8, 4), imn_lstm=(8, 8), gmn_dense=(8, 4), gmn_lstm=(8, 8))
+    net = Lekf(cfg.model, cfg.u_nominal, cfg.Q, cfg.R, arch)
+    ts = TrackSet(gm.to_scaled(X), np.clip(U, 1e-3, np.asarray(arch.imn_output_range) * cfg.u_nominal * 0.999), L, 1.0)
+    v0 = net.init_variables(jax.random.PRNGKey(0))
+    evaluate = make_eval(net)
+    batch = noisy_batch(ts, np.arange(4), cfg.R, cfg.P0, rng)
+
+    def loss(v):
+        x0, P0b, Z, DT, valid, Xs, Us = batch
+        return float(evaluate(v, net.init_carry(x0, P0b), Z, DT, valid, Xs, Us)[0])
+
+    before = loss(v0)
+    v1, hist = train(net, v0, ts, ts, TrainConfig(epochs=6, batch=4, chunk=40, learning_rate=3e-3), cfg.P0,
+                     log=lambda *_: None)
+    after = loss(v1)
+    assert after < 0.9 * before, (before, after, hist)
+
+
+def _table2():
+    return json.loads((REPO / "results" / "seed002" / "table2.json").read_text())
+
+
+def test_shipped_lekf_reproduces_the_reported_run0_figures():
+    """The committed parameter set, run on each scenario's own radar stream
+    (run 0 of the reproduction), gives the RMSE recorded in the committed
+    results/seed002/table2.json (docs/tracking.md table) within 1 %."""
+    table = _table2()
+    arch, variables, meta = params_store.load("lekf_seed002")
+    assert meta["data"]["data_seed"] == table["lekf_data_seed"]
+    got = repro_seed002.lekf_run0_rmse([1, 2, 3], (arch, variables))
+    for i, num in enumerate((1, 2, 3)):
+        rec = table["scenarios"][str(num)]["filters"]["LEKF"]["rmse_runs"][0]
+        np.testing.assert_allclose(got[i], rec, rtol=1e-2)
+
+
+def test_reproduction_short_mode_runs(tmp_path):
+    assert repro_seed002.main(["--short", "--out", str(tmp_path)]) == 0
+    res = json.loads((tmp_path / "table2.json").read_text())["scenarios"]["1"]
+    assert (tmp_path / "scenario1_errors.png").stat().st_size > 10_000
+    for ft in repro_seed002.FILTERS:
+        r = np.asarray(res["filters"][ft]["rmse_mean"])
+        assert np.all(np.isfinite(r)) and res["filters"][ft]["ms_per_step"] > 0
+    # the bound is an expectation: 3 runs of 200 s are too few to compare with it
+    # (the full reproduction's ratios are 1.5-16, docs/tracking.md); here it must be finite
+    assert np.all(np.isfinite(res["pcrb_rms"])) and np.all(np.asarray(res["pcrb_rms"]) > 0)
+    # 200 s of scenario 1 (no maneuver yet): every filter tracks within 3 km / 100 m/s
+    for ft in repro_seed002.FILTERS:
+        r = res["filters"][ft]["rmse_mean"]
+        assert r[0] < 3000.0 and r[3] < 100.0, (ft, r)
