@@ -3,7 +3,8 @@ messages in (issue 22): errors are paired by stamp and summed in time order;
 a node's last diagnostics are its highest heartbeat, not the last logged."""
 import numpy as np
 
-from hyper_nav_sim.report import _newer, errors, summarize
+from hyper_nav_sim.core.scoring import errors, summarize
+from hyper_nav_sim.report import _newer
 
 
 def states(t, lat_off):

@@ -57,7 +57,7 @@ geomag:
     out = tmp_path / "out"
     assert main(["--scenario", str(sc), "--short", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    for s in ("reproduce_seed003: error:", "geomag.map.epoch_decimal_year = 2025.5",
+    for s in ("repro_seed003: error:", "geomag.map.epoch_decimal_year = 2025.5",
               "magnetometer.epoch_decimal_year = 2027", "-16.4 nT", "geomag.map_epoch_tolerance_nT = 0.1 nT"):
         assert s in err, err
     assert not out.exists()
