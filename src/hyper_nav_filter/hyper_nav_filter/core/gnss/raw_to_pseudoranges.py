@@ -71,16 +71,27 @@ class MalformedGnssInput(ValueError):
     """A raw epoch or ephemeris record that cannot be used; the message says why."""
 
 
+_EMPTY = np.zeros(0)
+
+
 @dataclass(frozen=True)
 class RawGnssEpoch:
     """One receiver epoch, parallel arrays of N channels (as in
-    hyper_nav_msgs/GnssMeasurements).
+    hyper_nav_msgs/GnssMeasurements). A channel is one tracked *signal*: a
+    multi-frequency receiver reports a satellite once per signal.
 
     t_s: measurement epoch on the filter's time axis (header.stamp);
     t_rx_gpst_s: receiver time tag, continuous GPST seconds
     (gps_week * 604800 + rx_time_of_week_s; = true time + receiver clock / c);
-    system: 'G' | 'C' per channel (anything else is dropped as unsupported);
-    locked: False -> the tracking loop lost lock, the values are invalid."""
+    system: 'G' | 'E' | 'C' | 'J' ... per channel (anything the receiver
+    models do not support is dropped and counted);
+    locked: False -> the code is not valid (lost lock, u-blox prValid = 0).
+
+    Per-signal receiver outputs, each empty (not reported) or of length N:
+    ``signal`` RINEX 3 code ("1C", "5Q", ...; "" = the system's legacy
+    signal, :mod:`.signals`), ``carrier_phase_cycles`` (NaN: none),
+    ``doppler_hz``, ``cn0_dbhz``, ``lock_time_s``, ``tracking_flags``
+    (GnssMeasurements.TRACK_*), ``carrier_frequency_hz``."""
     t_s: float
     t_rx_gpst_s: float
     system: tuple
@@ -90,9 +101,39 @@ class RawGnssEpoch:
     rate_mps: np.ndarray
     rate_sigma_mps: np.ndarray
     locked: np.ndarray
+    signal: tuple = ()
+    carrier_phase_cycles: np.ndarray = field(default_factory=lambda: _EMPTY)
+    doppler_hz: np.ndarray = field(default_factory=lambda: _EMPTY)
+    cn0_dbhz: np.ndarray = field(default_factory=lambda: _EMPTY)
+    lock_time_s: np.ndarray = field(default_factory=lambda: _EMPTY)
+    tracking_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    carrier_frequency_hz: np.ndarray = field(default_factory=lambda: _EMPTY)
+
+    def __len__(self) -> int:
+        return len(self.system)
+
+    def signal_of(self, k: int) -> str:
+        """RINEX code of channel k ('' when the epoch carries no codes)."""
+        return self.signal[k] if self.signal else ""
+
+    def subset(self, idx) -> "RawGnssEpoch":
+        """The epoch with only the channels ``idx`` (optional arrays kept empty when empty)."""
+        idx = np.asarray(idx, int)
+
+        def pick(a):
+            a = np.asarray(a)
+            return a[idx] if len(a) else a
+        return RawGnssEpoch(self.t_s, self.t_rx_gpst_s, tuple(self.system[k] for k in idx), pick(self.prn),
+                            pick(self.pseudorange_m), pick(self.pseudorange_sigma_m), pick(self.rate_mps),
+                            pick(self.rate_sigma_mps), pick(self.locked),
+                            tuple(self.signal[k] for k in idx) if self.signal else (),
+                            pick(self.carrier_phase_cycles), pick(self.doppler_hz), pick(self.cn0_dbhz),
+                            pick(self.lock_time_s), pick(self.tracking_flags), pick(self.carrier_frequency_hz))
 
 
 _ARRAYS = ("prn", "pseudorange_m", "pseudorange_sigma_m", "rate_mps", "rate_sigma_mps", "locked")
+_OPTIONAL = ("signal", "carrier_phase_cycles", "doppler_hz", "cn0_dbhz", "lock_time_s", "tracking_flags",
+             "carrier_frequency_hz")
 
 
 def check_raw_epoch(raw: RawGnssEpoch) -> None:
@@ -103,6 +144,7 @@ def check_raw_epoch(raw: RawGnssEpoch) -> None:
         raise MalformedGnssInput(f"gnss raw: non-finite epoch time (t_s={raw.t_s}, t_rx_gpst_s={raw.t_rx_gpst_s})")
     n = len(raw.system)
     lengths = {name: np.size(getattr(raw, name)) for name in _ARRAYS}
+    lengths.update({name: len(getattr(raw, name)) for name in _OPTIONAL if len(getattr(raw, name))})
     if any(v != n for v in lengths.values()):
         raise MalformedGnssInput(f"gnss raw: array lengths differ: system {n}, "
                                  + ", ".join(f"{k} {v}" for k, v in lengths.items()))
