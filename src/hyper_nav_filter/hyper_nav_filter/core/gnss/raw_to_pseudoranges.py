@@ -65,6 +65,7 @@ from .propagation import (CARRIER_HZ, KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DE
                           klobuchar_delay_m)
 
 SUPPORTED_SYSTEMS = ("G", "C")
+EPHEMERIS_SYSTEMS = ("G", "E", "C", "J")          # records the store takes (receiver_model: real signals)
 
 
 class MalformedGnssInput(ValueError):
@@ -165,7 +166,7 @@ def check_ephemeris(eph: BroadcastEphemeris) -> None:
                                       "tgd")]
     if not np.all(np.isfinite(vals)):
         raise MalformedGnssInput(f"gnss ephemeris {eph.sat_id}: non-finite field")
-    if eph.system not in SUPPORTED_SYSTEMS:
+    if eph.system not in EPHEMERIS_SYSTEMS:
         raise MalformedGnssInput(f"gnss ephemeris: unsupported system {eph.system!r}")
     if not (eph.sqrtA > 0.0 and 0.0 <= eph.e < 1.0):
         raise MalformedGnssInput(f"gnss ephemeris {eph.sat_id}: sqrtA {eph.sqrtA} / e {eph.e} is not an orbit")
@@ -177,6 +178,7 @@ class EphemerisStore:
 
     def __init__(self, records=()):
         self._by_sat: dict[tuple[str, int], list[BroadcastEphemeris]] = {}
+        self._select_cache: dict = {}           # receiver_model's per-minute record choice
         for r in records:
             self.add(r)
 
@@ -193,6 +195,7 @@ class EphemerisStore:
         """Store a record (validated); False if the same (system, prn, week,
         toe) is already stored (it is then replaced)."""
         check_ephemeris(eph)
+        self._select_cache.clear()
         recs = self._by_sat.setdefault((eph.system, int(eph.prn)), [])
         for i, r in enumerate(recs):
             if r.week == eph.week and r.toe == eph.toe:
@@ -200,6 +203,9 @@ class EphemerisStore:
                 return False
         recs.append(eph)
         return True
+
+    def records_of(self, system: str, prn: int) -> list:
+        return self._by_sat.get((system, int(prn)), [])
 
     def select(self, system: str, prn: int, t_gpst_s: float) -> BroadcastEphemeris | None:
         recs = self._by_sat.get((system, int(prn)))

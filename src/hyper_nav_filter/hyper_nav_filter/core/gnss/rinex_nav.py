@@ -177,3 +177,49 @@ def read_rinex3_nav(path, systems=("G", "C")):
     also gives the counts and the malformed records."""
     recs = read_rinex3_nav_records(path, systems)
     return list(recs), recs.iono
+
+
+def _d(x: float) -> str:
+    """One RINEX 3 navigation value: D19.12 (written with an E exponent)."""
+    return f"{x:19.12E}"
+
+
+def write_rinex3_nav(path, records, iono: dict | None = None) -> int:
+    """Write GPS, Galileo, BDS and QZSS records as a RINEX 3.04 mixed
+    navigation file (Tables A6, A8, A14, A10; the inverse of
+    :func:`read_rinex3_nav_records`), e.g. to hand records decoded from a
+    receiver log to a program that reads RINEX (RTKLIB). ``iono``: Klobuchar
+    sets {system: (alpha, beta)} for the header. Returns the record count."""
+    import datetime as _dtm
+    lines = [f"{3.04:9.2f}{'':11s}{'N: GNSS NAV DATA':20s}{'M: MIXED':20s}RINEX VERSION / TYPE",
+             f"{'hyper-nav':20s}{'':20s}{'':20s}PGM / RUN BY / DATE"]
+    for sysc, (ka, kb) in (("G", ("GPSA", "GPSB")), ("C", ("BDSA", "BDSB")), ("J", ("QZSA", "QZSB"))):
+        if iono and sysc in iono:
+            for key, vals in zip((ka, kb), iono[sysc]):
+                lines.append(f"{key:4s} " + "".join(f"{float(v):12.4E}" for v in vals) + f"{'':7s}IONOSPHERIC CORR")
+    lines.append(f"{'':60s}END OF HEADER")
+    n = 0
+    epoch0 = {"C": _dtm.datetime(2006, 1, 1)}
+    for e in records:
+        if e.system not in RINEX3_SYSTEMS:
+            continue
+        t = _dtm.datetime(1980, 1, 6) if e.system != "C" else epoch0["C"]
+        toc = t + _dtm.timedelta(seconds=float(e.toc_s))
+        head = f"{e.system}{e.prn:02d} {toc:%Y %m %d %H %M %S}" + _d(e.af0) + _d(e.af1) + _d(e.af2)
+        if e.system == "E":
+            l5 = (e.idot, float(e.data_source), float(e.week), 0.0)
+            l6 = (e.accuracy_m if np.isfinite(e.accuracy_m) else -1.0, float(e.health), e.tgd, e.tgd2)
+        elif e.system == "C":
+            l5 = (e.idot, 0.0, float(e.week), 0.0)
+            l6 = (e.accuracy_m if np.isfinite(e.accuracy_m) else 0.0, float(e.health), e.tgd, e.tgd2)
+        else:
+            l5 = (e.idot, 0.0, float(e.week), 0.0)
+            l6 = (e.accuracy_m if np.isfinite(e.accuracy_m) else 0.0, float(e.health), e.tgd, float(max(e.iode, 0)))
+        orbit = [(float(max(e.iode, 0)), e.crs, e.delta_n, e.M0), (e.cuc, e.e, e.cus, e.sqrtA),
+                 (e.toe, e.cic, e.Omega0, e.cis), (e.i0, e.crc, e.omega, e.OmegaDot), l5, l6,
+                 (e.toe, 0.0, 0.0, 0.0)]
+        lines.append(head)
+        lines += ["    " + "".join(_d(v) for v in row) for row in orbit]
+        n += 1
+    Path(path).write_text("\n".join(lines) + "\n")
+    return n

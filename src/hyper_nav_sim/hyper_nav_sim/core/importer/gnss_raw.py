@@ -59,6 +59,7 @@ class GnssImport:
     offset_s: float = GPST_UNIX_OFFSET_S
     read_wall_s: float = 0.0
     source: str = ""
+    header: dict = field(default_factory=dict)
 
     def stamp_s(self, t_gpst_s: float) -> float:
         return float(t_gpst_s) + self.offset_s
@@ -106,7 +107,8 @@ def read_gnss(preset: str, spec: dict, base_dir, where: str = "gnss") -> GnssImp
         path = _path(spec, "file", base_dir, where)
         signals = spec.get("signals")
         obs = read_rinex_obs(path, signals=signals)
-        imp = GnssImport(obs.epochs, [], {}, Counter(obs.counts), list(obs.errors), source=str(path))
+        imp = GnssImport(obs.epochs, [], {}, Counter(obs.counts), list(obs.errors), source=str(path),
+                         header=obs.header)
         _add_nav(imp, _path(spec, "nav", base_dir, where), at_s=np.nan)
     else:
         raise ConfigError(f"preset: {preset!r} is not a GNSS receiver preset")
@@ -141,7 +143,8 @@ def window(imp: GnssImport, start_s, end_s) -> GnssImport:
         raise ConfigError(f"gnss: no receiver epoch in the window [{start_s}, {end_s}]")
     t0 = keep[0].t_rx_gpst_s
     ephs = [(max(t, t0), e) for t, e in imp.ephemerides]
-    return GnssImport(keep, ephs, imp.iono, imp.counts, imp.errors, imp.offset_s, imp.read_wall_s, imp.source)
+    return GnssImport(keep, ephs, imp.iono, imp.counts, imp.errors, imp.offset_s, imp.read_wall_s, imp.source,
+                      imp.header)
 
 
 # ---------------------------------------------------------------- messages (rosbags types)
