@@ -22,6 +22,7 @@ setup(
         "build_geomag_map = hyper_nav_aiding.build_geomag_map:main",
         "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
         "reproduce_seed004 = hyper_nav_aiding.reproduce_seed004:main",
+            "tc_consistency = hyper_nav_aiding.tc_consistency:main",
         "lever_arm_node = hyper_nav_aiding.nodes.lever_arm_node:main",
         "reproduce_seed000 = hyper_nav_aiding.reproduce_seed000:main",
     ]},

@@ -32,7 +32,9 @@ and ``gnss/ephemeris`` (transient local) instead of fixes::
     filter: {...}                  # with an IMU: config (state_blocks with clk), sources, initial_state
 
 The IMU, when given, is a column map (``core/importer/columns.py``) on the
-same time axis as the GNSS stamps; ``imu.format`` names an entry of
+same time axis as the GNSS stamps; ``filter.initial_state`` fields not given
+(position, receiver clock bias and drift, inter-system biases) come from a
+single-point solution of the first receiver epochs; ``imu.format`` names an entry of
 :data:`IMU_FORMATS` (a function spec -> column map) registered by the module
 that knows that sensor's file. Without an IMU the bag holds the receiver
 data only (single-point positioning, ``player``) and no filter.yaml is
@@ -165,9 +167,11 @@ def load_raw_import(doc: dict, base: pathlib.Path) -> dict:
         filt = copy.deepcopy(doc.get("filter") or {})
         filt.setdefault("config", {}).setdefault("state_blocks", ["att", "vel", "pos", "bg", "ba", "clk"])
         filt.setdefault("sources", copy.deepcopy(RAW_SOURCES))
-        if not filt.get("initial_state"):
-            raise ConfigError("filter.initial_state: required with an IMU (no truth in a receiver import)")
-        filt["initial_state"].setdefault("t_s", float(imu.t_s[0]))
+        init = dict(filt.get("initial_state") or {})
+        init.setdefault("t_s", float(imu.t_s[0]))
+        if "lat_deg" not in init:                 # position, clock, inter-system biases from SPP
+            init = {**gnss_raw.initial_from_spp(gnss, init["t_s"]), **init}
+        filt["initial_state"] = init
         setup = _plain({"filter": filt, "report": {"skip_s": 0.0, **(doc.get("report") or {})}})
         FilterSetup.from_dict(setup)
     elif doc.get("filter"):

@@ -51,7 +51,7 @@ state); the simulator has none either.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -339,6 +339,51 @@ def nominal_receiver(state: NavState, lever_arm_b_m, t_s: float) -> tuple[np.nda
     return r, (0.0 if clk is None else float(clk[0] + clk[1] * dt))
 
 
+class RangeBiasSlots:
+    """Which satellite holds which slot of the range-bias block
+    (``blocks.range_bias``): a satellite keeps its slot while it is used and
+    for ``release_s`` after (a short loss of lock keeps its bias state); a
+    newly used satellite takes the lowest free slot, which is reset; when no
+    slot is free the satellite gets none (its measurement variance takes the
+    bias variance instead; counted). Assignment follows the epochs in the
+    order they are processed (epoch order: ``TightGnssInput.ready``)."""
+
+    def __init__(self, n_slots: int, release_s: float = 30.0):
+        self.n = int(n_slots)
+        self.release_s = float(release_s)
+        self.owner: list = [None] * self.n
+        self.slot_of: dict = {}
+        self.last_seen: dict = {}
+
+    def assign(self, sat_ids, t_s: float, counters: Counter | None = None):
+        """(slot per satellite, -1 = none; slots to reset)."""
+        for sat, slot in list(self.slot_of.items()):
+            if t_s - self.last_seen[sat] > self.release_s:        # unseen too long (back now or not): a new bias
+                self.owner[slot] = None
+                del self.slot_of[sat]
+        slots, resets = [], []
+        for sat in sat_ids:
+            s = self.slot_of.get(sat, -1)
+            if s < 0:
+                free = [k for k in range(self.n) if self.owner[k] is None]
+                if free:
+                    s = free[0]
+                    self.owner[s] = sat
+                    self.slot_of[sat] = s
+                    resets.append(s)
+                elif counters is not None:
+                    counters["range_bias_pool_full"] += 1
+            self.last_seen[sat] = t_s
+            slots.append(s)
+        return np.asarray(slots, int), resets
+
+
+def _isb_cols(systems) -> np.ndarray:
+    from ..blocks.range_bias import InterSystemBias
+    order = InterSystemBias.SYSTEMS
+    return np.array([order.index(s) if s in order else -1 for s in systems], int)
+
+
 @dataclass(frozen=True)
 class RawPseudoranges:
     """Measurement of the fusion engine (kind "pseudorange"): a raw epoch with
@@ -346,7 +391,17 @@ class RawPseudoranges:
     filter at the nominal state *of its epoch* (:meth:`model` builds the
     :class:`Pseudoranges` there). The result does not depend on when the
     message arrived (a late epoch is re-processed from its own state), so the
-    live node and an offline run over the bag agree."""
+    live node and an offline run over the bag agree.
+
+    Two receiver models: the simulated receiver's channels (``channels``,
+    ``ephemerides``, ``corrections``: this module's functions), or real
+    signals (``receiver`` + ``observations``: :mod:`.receiver_model`, signal
+    plan, group delays, ionosphere-free pairs, the error model's variances,
+    elevation mask at the nominal position). ``isb_col`` / ``bias_slot``:
+    inter-system-bias column and range-bias slot per satellite
+    (``blocks.range_bias``); ``state_resets`` the slots taken anew
+    (``ErrorStateKF.apply_resets``); ``unslotted_var_m2`` the bias variance
+    added to satellites without a slot."""
     t_s: float
     raw: RawGnssEpoch
     channels: np.ndarray
@@ -354,15 +409,64 @@ class RawPseudoranges:
     corrections: ReceiverCorrections
     use_rates: bool = False
     kind: str = "pseudorange"
+    receiver: object = None
+    observations: object = None
+    states: object = None
+    isb_col: np.ndarray | None = None
+    bias_slot: np.ndarray | None = None
+    bias_block: str = ""
+    state_resets: tuple = ()
+    unslotted_var_m2: float = 0.0
     coupling = "tight"
+
+    @property
+    def sat_ids(self) -> list[str]:
+        if self.observations is not None:
+            return self.observations.sat_ids
+        return [f"{self.raw.system[k]}{int(self.raw.prn[k]):02d}" for k in self.channels]
 
     def pseudoranges(self, state: NavState, lever_arm_b_m) -> Pseudoranges:
         r_ant, clk = nominal_receiver(state, lever_arm_b_m, self.t_s)
-        return corrected_pseudoranges(self.raw, self.channels, self.ephemerides, r_ant, self.corrections, clk,
-                                      self.use_rates)
+        if self.observations is None:
+            p = corrected_pseudoranges(self.raw, self.channels, self.ephemerides, r_ant, self.corrections, clk,
+                                       self.use_rates)
+            keep = None
+        else:
+            p, keep = _real_pseudoranges(self.observations, self.raw, r_ant, clk, self.receiver, self.use_rates,
+                                         self.states)
+        isb, slot = self.isb_col, self.bias_slot
+        if keep is not None:
+            isb = None if isb is None else isb[keep]
+            slot = None if slot is None else slot[keep]
+        if slot is not None and self.unslotted_var_m2 > 0.0 and np.any(slot < 0):
+            p = replace(p, pseudorange_var_m2=p.pseudorange_var_m2 + np.where(slot < 0, self.unslotted_var_m2, 0.0))
+        return replace(p, isb_col=isb, bias_slot=slot, bias_block=self.bias_block)
 
     def model(self, state: NavState, layout, ctx):
         return self.pseudoranges(state, ctx.lever_arm_b_m).model(state, layout, ctx)
+
+
+def _real_pseudoranges(obs, raw, r_ant, clk, receiver, use_rates, states=None):
+    """Pseudoranges of real signals at the nominal receiver (receiver_model;
+    satellite states at the transmit time given by the pseudoranges,
+    ``receiver_model.states_from_pseudoranges``, evaluated once when the
+    measurement is made: they do not depend on the receiver position);
+    satellites below the elevation mask left out. Rates: the first signal's, + c x satellite clock drift (the
+    light-time rate factor, 2e-5 relative, is left out: real receivers here
+    move at walking speed)."""
+    from .receiver_model import corrected_at
+    cor = corrected_at(obs, r_ant, clk, receiver, states)
+    keep = np.flatnonzero(cor.el_rad >= receiver.elevation_mask_rad)
+    rate = rate_var = np.zeros(0)
+    if use_rates:
+        ch0 = np.array([c.channels[0] for c in obs.choices], int)
+        rate = (np.asarray(raw.rate_mps, float)[ch0] + C_MPS * cor.sat_clock_drift_sps)[keep]
+        rate_var = (np.asarray(raw.rate_sigma_mps, float)[ch0] ** 2)[keep]
+        ok = np.isfinite(rate)
+        rate = np.where(ok, rate, 0.0)
+        rate_var = np.where(ok, rate_var, 1e12)             # no Doppler: no information
+    return Pseudoranges(float(raw.t_s), cor.r_sat_e_m[keep], cor.v_sat_e_mps[keep], cor.pr_m[keep],
+                        cor.var_m2[keep], rate, rate_var), keep
 
 
 class TightGnssInput:
@@ -375,20 +479,40 @@ class TightGnssInput:
     system has a record, or until the filter time passes its epoch by
     ``hold_s`` (then the channels without one are dropped). Keep ``hold_s``
     below the engine's ``output_delay_s`` so that released solutions do not
-    depend on the arrival order."""
+    depend on the arrival order.
+
+    ``receiver``: a :class:`.receiver_model.ReceiverModel` for real signals
+    (None: the simulated receiver's channels); ``per_satellite``: one
+    measurement per satellite, so the filter's chi-square innovation gate
+    tests and rejects satellites one by one (fault detection and exclusion
+    in the filter) instead of whole epochs; ``range_bias_release_s``: see
+    :class:`RangeBiasSlots` (used when the engine's layout has ``rb`` or
+    ``rb32``)."""
 
     def __init__(self, corrections: ReceiverCorrections | None = None, use_rates: bool = False,
-                 hold_s: float = 0.5):
+                 hold_s: float = 0.5, receiver=None, per_satellite: bool = False,
+                 range_bias_release_s: float = 30.0):
         self.corrections = corrections if corrections is not None else ReceiverCorrections()
         self.use_rates = bool(use_rates)
         self.hold_s = float(hold_s)
+        self.receiver = receiver
+        self.per_satellite = bool(per_satellite)
+        self.range_bias_release_s = float(range_bias_release_s)
         self.ephemerides = EphemerisStore()
         self.counters: Counter = Counter()
         self._pending: list[RawGnssEpoch] = []
+        self._slots: RangeBiasSlots | None = None
 
     def add_ephemeris(self, eph: BroadcastEphemeris) -> None:
         """Store a record; raises MalformedGnssInput for an invalid one."""
         self.ephemerides.add(eph)
+
+    def add_klobuchar(self, system: str, alpha, beta) -> None:
+        """A broadcast Klobuchar set (GnssEphemeris.klobuchar_*) for the real-signal model."""
+        if self.receiver is not None:
+            kb = dict(self.receiver.klobuchar or {})
+            kb[system] = (np.asarray(alpha, float), np.asarray(beta, float))
+            self.receiver = replace(self.receiver, klobuchar=kb)
 
     def add_raw(self, raw: RawGnssEpoch) -> None:
         """Queue a raw epoch; raises MalformedGnssInput for a malformed one."""
@@ -397,8 +521,9 @@ class TightGnssInput:
 
     def _complete(self, raw: RawGnssEpoch) -> bool:
         t = raw.t_rx_gpst_s
+        systems = SUPPORTED_SYSTEMS if self.receiver is None else tuple(self.receiver.plan)
         return all(self.ephemerides.select(s, p, t) is not None
-                   for s, p, ok in zip(raw.system, raw.prn, raw.locked) if ok and s in SUPPORTED_SYSTEMS)
+                   for s, p, ok in zip(raw.system, raw.prn, raw.locked) if ok and s in systems)
 
     def ready(self, t_now_s: float) -> list[RawGnssEpoch]:
         """Pending epochs to process now (complete ones, and those held past
@@ -408,21 +533,70 @@ class TightGnssInput:
             self._pending = [r for r in self._pending if not any(r is o for o in out)]
         return sorted(out, key=lambda r: r.t_s)
 
-    def measurement(self, raw: RawGnssEpoch) -> RawPseudoranges | None:
-        """The engine measurement of a ready epoch (None: no usable channel)."""
-        idx, ephs = select_channels(raw, self.ephemerides, self.counters)
-        if not len(idx):
+    def measurement(self, raw: RawGnssEpoch, cfg=None) -> RawPseudoranges | None:
+        """The engine measurement of a ready epoch (None: no usable channel);
+        with ``per_satellite``, the first of :meth:`measurements`."""
+        m = self.measurements(raw, cfg)
+        return m[0] if m else None
+
+    def measurements(self, raw: RawGnssEpoch, cfg=None) -> list:
+        """The engine measurements of a ready epoch: one RawPseudoranges, or
+        one per satellite (``per_satellite``); empty when no channel is usable.
+        ``cfg``: the engine's FilterConfig (its layout says whether there
+        are range-bias and inter-system-bias states)."""
+        states = None
+        if self.receiver is None:
+            idx, ephs = select_channels(raw, self.ephemerides, self.counters)
+            obs = None
+            n = len(idx)
+            systems = [raw.system[k] for k in idx]
+        else:
+            from .receiver_model import satellite_observations, states_from_pseudoranges
+            obs = satellite_observations(raw, self.ephemerides, self.receiver, self.counters)
+            idx, ephs = np.zeros(0, int), ()
+            n = len(obs)
+            states = states_from_pseudoranges(obs) if n else None
+            systems = [c.system for c in obs.choices]
+        if not n:
             self.counters["epochs_without_usable_channel"] += 1
-            return None
-        return RawPseudoranges(float(raw.t_s), raw, idx, ephs, self.corrections, self.use_rates)
+            return []
+        lay = cfg.layout if cfg is not None else None
+        isb = _isb_cols(systems) if (lay is not None and lay.has("isb")) else None
+        block = next((b for b in ("rb", "rb32") if lay is not None and lay.has(b)), "")
+        slots, resets, var_b = None, (), 0.0
+        if block:
+            from ..blocks import REGISTRY
+            if self._slots is None:
+                self._slots = RangeBiasSlots(REGISTRY[block].size, self.range_bias_release_s)
+            sat_ids = [f"{s}{int(p):02d}" for s, p in zip(systems, (raw.prn[k] for k in idx) if obs is None
+                                                        else (c.prn for c in obs.choices))]
+            slots, new = self._slots.assign(sat_ids, float(raw.t_s), self.counters)
+            sigma = float(cfg.range_bias_sigma_m)
+            resets = tuple((block, int(s), sigma) for s in new)
+            var_b = sigma ** 2
+            self.counters["range_bias_slot_resets"] += len(new)
+        common = dict(use_rates=self.use_rates, receiver=self.receiver, bias_block=block, unslotted_var_m2=var_b)
+        if not self.per_satellite:
+            return [RawPseudoranges(float(raw.t_s), raw, idx, ephs, self.corrections, observations=obs, states=states,
+                                    isb_col=isb, bias_slot=slots, state_resets=resets, **common)]
+        out = []
+        for k in range(n):
+            sl = [k]
+            res_k = tuple(r for r in resets if slots is not None and r[1] == slots[k])
+            out.append(RawPseudoranges(
+                float(raw.t_s), raw, idx[sl] if obs is None else idx, tuple(ephs[j] for j in sl) if obs is None else (),
+                self.corrections, observations=None if obs is None else obs.subset(sl),
+                states=None if states is None else states.subset(sl),
+                isb_col=None if isb is None else isb[sl], bias_slot=None if slots is None else slots[sl],
+                state_resets=res_k, **common))
+        return out
 
     def feed(self, engine) -> int:
         """Queue the measurements of the ready epochs (at the engine's filter
         time) in ``engine`` (a FusionEngine). Returns how many were added."""
         n = 0
         for raw in self.ready(engine.t_latest_s):
-            m = self.measurement(raw)
-            if m is not None:
+            for m in self.measurements(raw, getattr(engine, "cfg", None)):
                 ok, _ = engine.add_measurement(m)
                 n += int(ok)
         return n

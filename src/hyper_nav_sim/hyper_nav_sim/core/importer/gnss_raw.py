@@ -221,3 +221,36 @@ def ephemeris_messages(imp: GnssImport, counts: Counter | None = None):
             accuracy_m=float(eph.accuracy_m) if np.isfinite(eph.accuracy_m) else 0.0,
             klobuchar_alpha=np.asarray(kb[0], float) if kb else np.zeros(0),
             klobuchar_beta=np.asarray(kb[1], float) if kb else np.zeros(0))
+
+
+def initial_from_spp(imp: GnssImport, t_stamp_s: float, n_epochs: int = 5) -> dict:
+    """``filter.initial_state`` fields from single-point positioning of the
+    first receiver epochs at or after ``t_stamp_s`` (the IMU's first epoch):
+    antenna position (lat/lon/alt of the mean of ``n_epochs`` solutions),
+    receiver clock bias (at t_stamp_s) and drift (their slope), inter-system
+    biases. The default signal plan and error model of
+    ``hyper_nav_filter.core.gnss`` (combinations.DEFAULT_PLAN)."""
+    from hyper_nav_filter.core import earth
+    from hyper_nav_filter.core.gnss import spp
+    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
+    from hyper_nav_filter.core.gnss.receiver_model import ReceiverModel
+    store = EphemerisStore()
+    for _, e in imp.ephemerides:
+        try:
+            store.add(e)
+        except MalformedGnssInput:
+            pass
+    cfg = spp.SppConfig(ReceiverModel(klobuchar=imp.iono or None))
+    eps = [e for e in imp.epochs if imp.stamp_s(e.t_rx_gpst_s) >= t_stamp_s - 1e-6]
+    sols = [s for s in spp.solve(eps[: 4 * n_epochs], store, cfg) if s.valid][:n_epochs]
+    if not sols:
+        raise ConfigError("filter.initial_state: no single-point solution in the first receiver epochs; give "
+                          "lat_deg, lon_deg, alt_m, clock_bias_m")
+    r = np.mean([s.pos_ecef_m for s in sols], axis=0)
+    lat, lon, alt = earth.ecef_to_geodetic(r)
+    t = np.array([imp.stamp_s(s.t_rx_gpst_s) for s in sols])
+    b = np.array([s.clock_bias_m for s in sols])
+    drift = float(np.polyfit(t - t[0], b, 1)[0]) if len(sols) > 1 else 0.0
+    isb = [float(np.mean([s.isb_m.get(k, 0.0) for s in sols])) for k in ("E", "C", "J")]
+    return {"lat_deg": float(np.rad2deg(lat)), "lon_deg": float(np.rad2deg(lon)), "alt_m": float(alt),
+            "clock_bias_m": float(b[0] + drift * (t_stamp_s - t[0])), "clock_drift_mps": drift, "isb_m": isb}
