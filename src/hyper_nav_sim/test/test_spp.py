@@ -7,7 +7,6 @@ import importlib.util
 import json
 from pathlib import Path
 
-import pytest
 import yaml
 
 from hyper_nav_sim import import_data

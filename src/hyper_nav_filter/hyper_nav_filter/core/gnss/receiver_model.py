@@ -33,8 +33,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .. import earth
-from .combinations import DEFAULT_PLAN, Choice, choose_signals, iono_free_coefficients, parse_plan
-from .ephemeris import (C_MPS, BroadcastEphemeris, EphemerisStack, constants, satellite_position_ecef,
+from .combinations import DEFAULT_PLAN, choose_signals, iono_free_coefficients, parse_plan
+from .ephemeris import (C_MPS, EphemerisStack, constants, satellite_position_ecef,
                         select_ephemeris, system_time_s)
 from .geometry import elevation_azimuth, satellite_states_at_reception
 from .propagation import F_L1_HZ, hopfield_delay_m, klobuchar_delay_m
