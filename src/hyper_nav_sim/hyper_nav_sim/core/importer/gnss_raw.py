@@ -217,7 +217,7 @@ def ephemeris_messages(imp: GnssImport, counts: Counter | None = None):
             cuc_rad=float(eph.cuc), cus_rad=float(eph.cus), crc_m=float(eph.crc), crs_m=float(eph.crs),
             cic_rad=float(eph.cic), cis_rad=float(eph.cis), af0_s=float(eph.af0), af1_sps=float(eph.af1),
             af2_sps2=float(eph.af2), tgd_s=float(eph.tgd), tgd2_s=float(eph.tgd2), iode=int(eph.iode),
-            health=int(eph.health), data_source=int(eph.data_source),
+            health=min(int(eph.health), 255), data_source=int(eph.data_source),     # uint8: a 9-bit Galileo word stays non-zero
             accuracy_m=float(eph.accuracy_m) if np.isfinite(eph.accuracy_m) else 0.0,
             klobuchar_alpha=np.asarray(kb[0], float) if kb else np.zeros(0),
             klobuchar_beta=np.asarray(kb[1], float) if kb else np.zeros(0))
