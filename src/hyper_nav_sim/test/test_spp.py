@@ -7,6 +7,8 @@ import importlib.util
 import json
 from pathlib import Path
 
+import pytest
+
 import yaml
 
 from hyper_nav_sim import import_data
@@ -23,6 +25,7 @@ def _data_dir() -> str:
     return str(rd.real_file(rd.TLSE_OBS).parents[1])
 
 
+@pytest.mark.slow
 def test_spp_tlse_short_beside_rtklib(tmp_path, capsys):
     assert main(["tlse", "--short", "30", "--out", str(tmp_path), "--data-dir", _data_dir()]) == 0
     out = capsys.readouterr().out
@@ -37,6 +40,7 @@ def test_spp_tlse_short_beside_rtklib(tmp_path, capsys):
         assert (tmp_path / png).stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_spp_walk_and_a_bag(tmp_path, capsys):
     assert main(["walk", "--short", "40", "--out", str(tmp_path / "walk"), "--data-dir", _data_dir()]) == 0
     doc = json.loads((tmp_path / "walk" / "spp.json").read_text())

@@ -97,6 +97,7 @@ def test_raim_excludes_a_faulty_satellite_and_names_it(tlse):
     assert sols[0].test_statistic <= sols[0].test_threshold
 
 
+@pytest.mark.slow
 def test_walk_galileo_records_give_small_residuals():
     """Galileo I/NAV records decoded from the walk log (no RINEX of that day
     to compare with, and RTKLIB's UBX decoder gives none from this log):
