@@ -120,7 +120,10 @@ class GnssRawSource(SourceType):
                                                p["troposphere"])
         receiver = None
         if p["signals"]:
-            receiver = real_receiver_model(p, corr)
+            try:
+                receiver = real_receiver_model(p, corr)
+            except ConfigError as exc:
+                raise ConfigError(f"filter.sources.{self.id}.{exc}") from None
         self.tight = TightGnssInput(corr, p["use_rates"], p["ephemeris_wait_s"], receiver, p["per_satellite"],
                                     p["range_bias_release_s"])
 

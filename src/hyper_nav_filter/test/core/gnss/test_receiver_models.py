@@ -145,3 +145,18 @@ def test_apply_resets_restarts_a_state_and_keeps_snapshots():
     assert kf.P[k, k] == 6.25 and kf.P[k, 6] == 0.0 and kf.values[k - 9] == 0.0
     assert snap.P[k, 6] == 0.3 and snap.values[k - 9] == 1.5          # the snapshot is untouched
     assert cfg.layout.sl("rb").stop - cfg.layout.sl("rb").start == 16
+
+
+def test_gnss_raw_source_signal_plan_errors_name_the_field():
+    from hyper_nav_filter.core.config import FilterConfig
+    from hyper_nav_filter.core.params import ConfigError
+    from hyper_nav_filter.sources import make_sources, parse_sources
+    cfg = FilterConfig.from_dict({"state_blocks": ["att", "vel", "pos", "bg", "ba", "clk"]})
+    table = {"imu": {"type": "imu", "topic": "imu/data_raw"}, "g": {"type": "gnss_raw", "topic": "gnss/raw"}}
+    for sig, msg in ((["G1C"], r"filter\.sources\.g\.signals: 'G1C' is not"),
+                     (["G:1C+1W"], r"filter\.sources\.g\.signals\.G: '1C\+1W' combines two signals of the same band")):
+        with pytest.raises(ConfigError, match=msg):
+            make_sources(parse_sources({**table, "g": {**table["g"], "signals": sig}}), cfg)
+    src = [s for s in make_sources(parse_sources({**table, "g": {**table["g"], "signals": ["G:1C+2W,1C", "E:1X"]}}),
+                                   cfg) if s.TYPE == "gnss_raw"][0]
+    assert src.tight.receiver.plan == {"G": (("1C", "2W"), ("1C",)), "E": (("1X",),)}
