@@ -23,6 +23,8 @@ setup(
         "repro_seed002 = hyper_nav_repro.seed002.reproduce:main",
         "repro_seed003 = hyper_nav_repro.seed003.reproduce:main",
         "repro_seed004 = hyper_nav_repro.seed004.reproduce:main",
+        # seed 004's tightly coupled covariance with and without range-bias states (issue 20)
+        "tc_consistency = hyper_nav_repro.seed004.tc_consistency:main",
         # seed 002's L-EKF parameter set (make train-lekf)
         "train_lekf = hyper_nav_repro.seed002.train_lekf:main",
     ]},

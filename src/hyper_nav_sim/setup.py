@@ -12,6 +12,7 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/scenarios", glob("scenarios/*.yaml")),
+        ("share/" + package_name + "/real_data", glob("real_data/*.yaml")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -37,6 +38,7 @@ setup(
             "import_data = hyper_nav_sim.import_data:main",
             "foxglove_view = hyper_nav_sim.nodes.foxglove_view:main",
             "mc_campaign = hyper_nav_sim.mc_campaign:main",
+            "spp = hyper_nav_sim.spp:main",
         ],
         # pytest fixtures for users' own ROS tests (hyper_nav_graph, hyper_nav_domain_id)
         "pytest11": ["hyper_nav = hyper_nav_sim.pytest_plugin"],

@@ -10,7 +10,10 @@ so increments are recovered exactly as rate * (stamp - previous stamp).
 hyper_nav_msgs/GnssMeasurements and GnssEphemeris map to the tightly coupled
 core types (``core.gnss.raw_to_pseudoranges.RawGnssEpoch``,
 ``core.gnss.ephemeris.BroadcastEphemeris``); system codes 1 (GPS) -> 'G',
-3 (BDS) -> 'C', others -> '?<code>' (dropped as unsupported downstream).
+2 (Galileo) -> 'E', 3 (BDS) -> 'C', 5 (QZSS) -> 'J', 6 (GLONASS) -> 'R',
+others -> '?<code>' (dropped as unsupported downstream). The per-signal
+arrays (signal code, carrier phase, lock time, tracking flags) are carried
+when the message has them (empty = not reported).
 """
 from __future__ import annotations
 
@@ -18,9 +21,10 @@ import numpy as np
 
 from .core.gnss.ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris
 from .core.gnss.raw_to_pseudoranges import RawGnssEpoch
+from .core.gnss.signals import SYSTEM_OF_MSG
 from .core.measurements import GnssPosition, GnssVelocity
 
-GNSS_SYSTEMS = {1: "G", 3: "C"}          # hyper_nav_msgs SYSTEM_GPS, SYSTEM_BDS
+GNSS_SYSTEMS = dict(SYSTEM_OF_MSG)       # hyper_nav_msgs SYSTEM_GPS 1, _GAL 2, _BDS 3, _QZSS 5, _GLO 6
 
 
 def stamp_to_s(stamp) -> float:
@@ -62,12 +66,14 @@ def gnss_raw(msg) -> RawGnssEpoch:
     """hyper_nav_msgs/GnssMeasurements -> RawGnssEpoch (no validation here:
     the core checks lengths and values, ``check_raw_epoch``)."""
     def arr(name, dtype=float):
-        return np.asarray(list(getattr(msg, name)), dtype=dtype)
+        return np.asarray(list(getattr(msg, name, ())), dtype=dtype)
     return RawGnssEpoch(
         stamp_to_s(msg.header.stamp), float(msg.gps_week) * SECONDS_PER_WEEK + float(msg.rx_time_of_week_s),
         tuple(_system(c) for c in msg.system), arr("prn", int), arr("pseudorange_m"),
         arr("pseudorange_sigma_m"), arr("pseudorange_rate_mps"), arr("pseudorange_rate_sigma_mps"),
-        arr("locked", bool))
+        arr("locked", bool), tuple(str(c) for c in getattr(msg, "signal", ())), arr("carrier_phase_cycles"),
+        arr("doppler_hz"), arr("cn0_dbhz"), arr("lock_time_s"), arr("tracking_flags", np.uint8),
+        arr("carrier_frequency_hz"))
 
 
 def gnss_ephemeris(msg) -> BroadcastEphemeris:
@@ -79,4 +85,15 @@ def gnss_ephemeris(msg) -> BroadcastEphemeris:
         float(msg.m0_rad), float(msg.delta_n_radps), float(msg.idot_radps), float(msg.omega_dot_radps),
         float(msg.cuc_rad), float(msg.cus_rad), float(msg.crc_m), float(msg.crs_m), float(msg.cic_rad),
         float(msg.cis_rad), float(msg.af0_s), float(msg.af1_sps), float(msg.af2_sps2), float(msg.tgd_s),
-        iode=int(getattr(msg, "iode", -1)), health=int(getattr(msg, "health", 0)))
+        iode=int(getattr(msg, "iode", -1)), health=int(getattr(msg, "health", 0)),
+        tgd2=float(getattr(msg, "tgd2_s", 0.0)), data_source=int(getattr(msg, "data_source", 0)),
+        accuracy_m=float(getattr(msg, "accuracy_m", 0.0)))
+
+
+def gnss_ephemeris_klobuchar(msg):
+    """(system, alpha[4], beta[4]) of a GnssEphemeris that carries Klobuchar
+    coefficients, else None."""
+    a, b = list(getattr(msg, "klobuchar_alpha", ())), list(getattr(msg, "klobuchar_beta", ()))
+    if len(a) != 4 or len(b) != 4:
+        return None
+    return _system(msg.system), np.asarray(a, float), np.asarray(b, float)

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 from hyper_nav_filter.conversions import GNSS_SYSTEMS, s_to_stamp_fields
 
-SYSTEM_CODES = {s: code for code, s in GNSS_SYSTEMS.items()}      # 'G' -> 1 (SYSTEM_GPS), 'C' -> 3
+SYSTEM_CODES = {s: code for code, s in GNSS_SYSTEMS.items()}      # 'G' -> 1 (SYSTEM_GPS), 'E' -> 2, 'C' -> 3, ...
 
 
-def fill_gnss_ephemeris(msg, eph, t_s: float):
-    """Fill ``msg`` (GnssEphemeris) with the record ``eph``, stamped t_s."""
+def fill_gnss_ephemeris(msg, eph, t_s: float, klobuchar=None):
+    """Fill ``msg`` (GnssEphemeris) with the record ``eph``, stamped t_s;
+    ``klobuchar``: optional (alpha[4], beta[4]) the source broadcasts."""
     msg.header.stamp.sec, msg.header.stamp.nanosec = s_to_stamp_fields(t_s)
     msg.header.frame_id = ""
     msg.system = SYSTEM_CODES[eph.system]
@@ -23,4 +24,8 @@ def fill_gnss_ephemeris(msg, eph, t_s: float):
     msg.cic_rad, msg.cis_rad = float(eph.cic), float(eph.cis)
     msg.af0_s, msg.af1_sps, msg.af2_sps2, msg.tgd_s = float(eph.af0), float(eph.af1), float(eph.af2), float(eph.tgd)
     msg.iode, msg.health = int(eph.iode), int(eph.health)
+    msg.tgd2_s, msg.data_source, msg.accuracy_m = float(eph.tgd2), int(eph.data_source), float(eph.accuracy_m)
+    if klobuchar is not None:
+        msg.klobuchar_alpha = [float(x) for x in klobuchar[0]]
+        msg.klobuchar_beta = [float(x) for x in klobuchar[1]]
     return msg

@@ -20,6 +20,26 @@ rosbag2/MCAP bag for the fusion node and ``replay_filter``.
 Writes ``<out>/`` (``<out>.mcap`` + ``metadata.yaml``: imu/data_raw,
 gnss/fix, gnss/vel when the GNSS file has velocities, truth/state) and
 ``<out>/filter.yaml``, the validated filter setup ``replay_filter`` uses.
+
+Real receiver data (``preset: ubx`` or ``preset: rinex``,
+``core/importer/gnss_raw.py``): the ``gnss`` block names a u-blox UBX log
+or RINEX 3 observation + navigation files, and the bag gets ``gnss/raw``
+and ``gnss/ephemeris`` (transient local) instead of fixes::
+
+    preset: ubx
+    gnss: {file: gnss_1730.ubx, time_axis: gpst_unix}
+    imu: {file: imu.csv, format: <a registered IMU format> | column-map fields}   # optional
+    filter: {...}                  # with an IMU: config (state_blocks with clk), sources, initial_state
+
+The IMU, when given, is a column map (``core/importer/columns.py``) on the
+same time axis as the GNSS stamps; ``filter.initial_state`` fields not given
+(position, receiver clock bias and drift, inter-system biases) come from a
+single-point solution of the first receiver epochs; ``imu.format`` names an entry of
+:data:`IMU_FORMATS` (a function spec -> column map) registered by the module
+that knows that sensor's file. Without an IMU the bag holds the receiver
+data only (single-point positioning, ``player``) and no filter.yaml is
+written. The default sources of these presets: ``imu/data_raw`` (imu) and
+``gnss/raw`` (gnss_raw, tightly coupled).
 The first IMU record only starts the time line (its interval is unknown);
 the initial state is at its epoch unless ``initial_state.t_s`` says otherwise.
 """
@@ -37,10 +57,16 @@ from hyper_nav_filter.core import units
 from hyper_nav_filter.core.params import ConfigError
 from hyper_nav_filter.filter_setup import FilterSetup
 
-from .core.importer import columns, kfgins, messages
+from .core.bag import qos_profile
+from .core.importer import columns, gnss_raw, kfgins, messages
 
 PRESETS = {"kfgins": kfgins.preset}
+GNSS_RAW_PRESETS = ("ubx", "rinex")
+# IMU file formats for the receiver presets: name -> function(spec) -> column map (columns.py fields)
+IMU_FORMATS: dict = {}
 KNOWN = {"preset", "kfgins_config", "imu", "gnss", "truth", "start_s", "end_s", "filter", "report"}
+RAW_SOURCES = {"imu": {"type": "imu", "topic": "imu/data_raw"},
+               "gnss": {"type": "gnss_raw", "topic": "gnss/raw"}}
 
 
 def _merge(base: dict, over: dict) -> dict:
@@ -75,6 +101,8 @@ def load_import(path) -> dict:
     if unknown:
         raise ConfigError(f"{unknown[0]}: unknown field (known: {', '.join(sorted(KNOWN))})")
     base = path.parent
+    if doc.get("preset") in GNSS_RAW_PRESETS:
+        return load_raw_import(doc, base)
     filt = {}
     start, end = doc.get("start_s"), doc.get("end_s")
     if doc.get("kfgins_config"):
@@ -108,6 +136,49 @@ def load_import(path) -> dict:
     return {"imu": imu, "gnss": gnss, "truth": truth, "setup": _plain(setup), "window": (start, end)}
 
 
+def _imu_spec(spec, where="imu") -> dict:
+    if not isinstance(spec, dict):
+        raise ConfigError(f"{where}: expected a mapping with at least 'file', got {spec!r}")
+    fmt = spec.get("format")
+    if fmt is None:
+        return spec
+    if fmt not in IMU_FORMATS:
+        raise ConfigError(f"{where}.format: unknown {fmt!r} (known: {', '.join(IMU_FORMATS) or 'none registered'})")
+    return IMU_FORMATS[fmt]({k: v for k, v in spec.items() if k != "format"})
+
+
+def load_raw_import(doc: dict, base: pathlib.Path) -> dict:
+    """A ``ubx`` / ``rinex`` import: receiver data (+ optional IMU and filter setup)."""
+    if "truth" in doc or "kfgins_config" in doc:
+        bad = "truth" if "truth" in doc else "kfgins_config"
+        raise ConfigError(f"{bad}: not used by preset {doc['preset']!r}")
+    if not isinstance(doc.get("gnss"), dict):
+        raise ConfigError("gnss: required (a mapping with at least 'file')")
+    spec = dict(doc["gnss"])
+    start, end = doc.get("start_s", spec.pop("start_s", None)), doc.get("end_s", spec.pop("end_s", None))
+    gnss = gnss_raw.window(gnss_raw.read_gnss(doc["preset"], spec, base), start, end)
+    imu = None
+    if doc.get("imu") is not None:
+        imu = columns.window(columns.imu_table(_imu_spec(doc["imu"]), base), start, end)
+        if len(imu.t_s) < 2:
+            raise ConfigError(f"imu: fewer than 2 IMU records in the window [{start}, {end}]")
+    setup = None
+    if imu is not None:
+        filt = copy.deepcopy(doc.get("filter") or {})
+        filt.setdefault("config", {}).setdefault("state_blocks", ["att", "vel", "pos", "bg", "ba", "clk"])
+        filt.setdefault("sources", copy.deepcopy(RAW_SOURCES))
+        init = dict(filt.get("initial_state") or {})
+        init.setdefault("t_s", float(imu.t_s[0]))
+        if "lat_deg" not in init:                 # position, clock, inter-system biases from SPP
+            init = {**gnss_raw.initial_from_spp(gnss, init["t_s"]), **init}
+        filt["initial_state"] = init
+        setup = _plain({"filter": filt, "report": {"skip_s": 0.0, **(doc.get("report") or {})}})
+        FilterSetup.from_dict(setup)
+    elif doc.get("filter"):
+        raise ConfigError("filter: needs an imu block (the filter is driven by the IMU)")
+    return {"imu": imu, "gnss": None, "truth": None, "gnss_raw": gnss, "setup": setup, "window": (start, end)}
+
+
 def initial_from_truth(truth, t_s: float) -> dict:
     """The truth row at (or just before) t_s as initial_state fields."""
     k = max(0, int(np.searchsorted(truth.t_s, t_s + 1e-6)) - 1)
@@ -131,6 +202,8 @@ def _plain(x):
 def write(imported: dict, out) -> dict:
     """The bag and its filter.yaml; returns the message counts per topic."""
     out = pathlib.Path(out)
+    if imported.get("gnss_raw") is not None:
+        return write_raw(imported, out)
     setup = FilterSetup.from_dict(imported["setup"])
     imu, gnss, truth = imported["imu"], imported["gnss"], imported["truth"]
     dt = float(np.median(np.diff(imu.t_s)))
@@ -149,6 +222,28 @@ def write(imported: dict, out) -> dict:
     return counts
 
 
+def write_raw(imported: dict, out: pathlib.Path) -> dict:
+    """The bag of a receiver import (gnss/raw, gnss/ephemeris, imu/data_raw) and,
+    with an IMU, its filter.yaml; returns the message counts per topic."""
+    g = imported["gnss_raw"]
+    # ephemerides first: at equal stamps a record is written before the epoch that needs it
+    streams = {"/gnss/ephemeris": ("hyper_nav_msgs/msg/GnssEphemeris", gnss_raw.ephemeris_messages(g, g.counts)),
+               "/gnss/raw": ("hyper_nav_msgs/msg/GnssMeasurements", gnss_raw.raw_messages(g, counts=g.counts))}
+    imu = imported["imu"]
+    if imu is not None:
+        setup = FilterSetup.from_dict(imported["setup"])
+        cfg = setup.config
+        dt = float(np.median(np.diff(imu.t_s)))
+        gyro_var = units.deg_per_sqrt_hr(cfg.gyro_arw_deg_per_sqrt_hr) ** 2 / dt
+        accel_var = units.ug_per_sqrt_hz(cfg.accel_vrw_ug_per_sqrt_hz) ** 2 / dt
+        streams["/imu/data_raw"] = ("sensor_msgs/msg/Imu", messages.imu_messages(imu, gyro_var, accel_var))
+    qos = {"/gnss/ephemeris": [qos_profile(durability="transient_local", depth=1000)]}
+    counts = messages.write_bag(out, streams, qos)
+    if imported["setup"] is not None:
+        (out / "filter.yaml").write_text(yaml.safe_dump(imported["setup"], sort_keys=False))
+    return counts
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="import_data", description=__doc__.split("\n\n")[0])
     ap.add_argument("import_file", help="import description (YAML), see the module docstring")
@@ -160,12 +255,22 @@ def main(argv=None) -> int:
     except (ConfigError, FileExistsError, ValueError, OSError) as exc:
         print(f"import_data: error: {exc}", file=sys.stderr)
         return 2
+    g = imported.get("gnss_raw")
+    if g is not None:
+        t0, t1 = g.stamp_s(g.epochs[0].t_rx_gpst_s), g.stamp_s(g.epochs[-1].t_rx_gpst_s)
+        print(f"[import_data] {g.source}: read in {g.read_wall_s:.2f} s wall; {len(g.epochs)} receiver epochs, "
+              f"{t1 - t0:.1f} s from stamp {t0:.3f} s; "
+              + ", ".join(f"{k} {v}" for k, v in sorted(g.counts.items())))
+        for e in g.errors[:5]:
+            print(f"[import_data] skipped: {e}")
     imu = imported["imu"]
-    span = imu.t_s[-1] - imu.t_s[0]
-    print(f"[import_data] {args.out}: {span:.1f} s of data from t = {imu.t_s[0]:.3f} s; "
-          + ", ".join(f"{t} {n}" for t, n in counts.items()))
-    print(f"[import_data] filter setup: {pathlib.Path(args.out) / 'filter.yaml'}; "
-          f"replay: ros2run hyper_nav_sim replay_filter {args.out}")
+    if imu is not None:
+        span = imu.t_s[-1] - imu.t_s[0]
+        print(f"[import_data] imu: {span:.1f} s of data from t = {imu.t_s[0]:.3f} s")
+    print(f"[import_data] {args.out}: " + ", ".join(f"{t} {n}" for t, n in counts.items()))
+    if imported["setup"] is not None:
+        print(f"[import_data] filter setup: {pathlib.Path(args.out) / 'filter.yaml'}; "
+              f"replay: ros2run hyper_nav_sim replay_filter {args.out}")
     return 0
 
 

@@ -303,9 +303,30 @@ class ErrorStateKF:
         return np.concatenate([self.frame.difference(est.x_nav, truth.x_nav), est.values - truth.values])
 
     # ---- update -----------------------------------------------------------------------
+    def apply_resets(self, resets) -> None:
+        """Re-initialise elements of state blocks, each (block name, index in
+        the block, sigma): its row and column of P zeroed, its variance
+        sigma^2, its nominal value 0 -- a state that starts anew (a range-bias
+        slot taken by a newly used satellite, ``blocks.range_bias``). P and
+        the values are replaced, not changed in place (snapshots hold them)."""
+        if not resets:
+            return
+        P, values = self.P.copy(), self.values.copy()
+        for name, i, sigma in resets:
+            k = self.layout.sl(name).start + int(i)
+            P[k, :] = 0.0
+            P[:, k] = 0.0
+            P[k, k] = float(sigma) ** 2
+            values[k - self.layout.nav_dim] = 0.0
+        self.P, self.values = P, values
+
     def model(self, meas, ctx):
         """(residual, H, R) of a measurement at the current state, H in this
-        filter's own error state (models are written in the ENU convention)."""
+        filter's own error state (models are written in the ENU convention).
+        A measurement may declare ``state_resets`` (see :meth:`apply_resets`),
+        applied first: part of the measurement event, so re-processing a late
+        event repeats them."""
+        self.apply_resets(getattr(meas, "state_resets", None))
         fast_model = getattr(meas, "fast_model", None) if self.fast else None
         if fast_model is not None:          # compiled form, on the geodetic/ENU view only
             residual, H, R = fast_model(self.frame.view(self.x_nav, self.t_s), self.layout, ctx)

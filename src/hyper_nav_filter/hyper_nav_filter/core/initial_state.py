@@ -58,6 +58,11 @@ INIT_PARAMS = (
               length=3),
     ParamSpec("accel_scale_factor_ppm", FLOATS, (0.0, 0.0, 0.0), "initial accelerometer scale-factor estimate, "
               "body FLU (ppm)", length=3),
+    ParamSpec("clock_bias_m", FLOAT, 0.0, "initial receiver clock bias estimate (m; the clk block), e.g. from a "
+              "single-point solution: a u-blox receiver's can be hundreds of km"),
+    ParamSpec("clock_drift_mps", FLOAT, 0.0, "initial receiver clock drift estimate (m/s; the clk block)"),
+    ParamSpec("isb_m", FLOATS, (0.0, 0.0, 0.0), "initial inter-system bias estimates Galileo, BeiDou, QZSS vs GPS "
+              "(m; the isb block)", length=3),
 )
 INIT_BY_NAME = {p.name: p for p in INIT_PARAMS}
 REQUIRED_WITHOUT_BASE = ("lat_deg", "lon_deg", "alt_m")
@@ -77,6 +82,8 @@ def initial_state(values: dict) -> NavState:
                    accel_bias_b_mps2=units.ug(values["accel_bias_ug"]))
     nav.extra["sg"] = np.asarray(values["gyro_scale_factor_ppm"], float) * 1e-6
     nav.extra["sa"] = np.asarray(values["accel_scale_factor_ppm"], float) * 1e-6
+    nav.extra["clk"] = np.array([float(values["clock_bias_m"]), float(values["clock_drift_mps"])])
+    nav.extra["isb"] = np.asarray(values["isb_m"], float)
     return nav
 
 
@@ -92,6 +99,9 @@ def state_values(nav: NavState) -> dict:
         "accel_bias_ug": [float(x) for x in np.asarray(nav.accel_bias_b_mps2) / units.ug(1.0)],
         "gyro_scale_factor_ppm": [float(x) for x in np.asarray(nav.extra.get("sg", zero)) * 1e6],
         "accel_scale_factor_ppm": [float(x) for x in np.asarray(nav.extra.get("sa", zero)) * 1e6],
+        "clock_bias_m": float(np.asarray(nav.extra.get("clk", np.zeros(2)))[0]),
+        "clock_drift_mps": float(np.asarray(nav.extra.get("clk", np.zeros(2)))[1]),
+        "isb_m": [float(x) for x in np.asarray(nav.extra.get("isb", zero))],
     }
 
 

@@ -35,7 +35,12 @@ def sagnac_rotate(r_sat_e_m: np.ndarray, transit_s: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class Pseudoranges:
     """Per-satellite corrected pseudoranges (m) and rates (m/s) at epoch t_s.
-    ``rate_mps`` may be empty when only code is used."""
+    ``rate_mps`` may be empty when only code is used.
+
+    Optional range-error states (``blocks.range_bias``): ``isb_col`` per
+    satellite the column of its system in the ``isb`` block (-1: GPS, the
+    clock's own system), ``bias_slot`` its slot in the range-bias block
+    ``bias_block`` (-1: none); then rho_j = |r_j - r_a| + b + isb_s(j) + b_slot(j)."""
     t_s: float
     sat_pos_e_m: np.ndarray
     sat_vel_e_mps: np.ndarray
@@ -44,6 +49,9 @@ class Pseudoranges:
     rate_mps: np.ndarray
     rate_var_m2ps2: np.ndarray
     kind: str = "pseudorange"
+    isb_col: np.ndarray | None = None
+    bias_slot: np.ndarray | None = None
+    bias_block: str = ""
     coupling = "tight"
 
     def model(self, state: NavState, layout: StateLayout, ctx):
@@ -68,7 +76,17 @@ class Pseudoranges:
         H_rho[:, p] = u_n
         H_rho[:, a] = u_n @ skew(l_n)
         H_rho[:, ck.start] = 1.0
-        res = [rng + clk[0] - self.pseudorange_m]
+        res_rho = rng + clk[0] - self.pseudorange_m
+        for block, cols in (("isb", self.isb_col), (self.bias_block, self.bias_slot)):
+            if cols is None or not block or not layout.has(block):
+                continue
+            cols = np.asarray(cols, int)
+            rows = np.flatnonzero(cols >= 0)
+            if len(rows):
+                res_rho = res_rho + np.where(cols >= 0, np.asarray(state.extra.get(block), float)[np.maximum(cols, 0)],
+                                             0.0)
+                H_rho[rows, layout.sl(block).start + cols[rows]] = 1.0
+        res = [res_rho]
         H = [H_rho]
         R = [self.pseudorange_var_m2]
         if len(self.rate_mps):

@@ -12,16 +12,48 @@
   tracked, virtual (``is_virtual``, reconstructed under lock loss) or all
   channels, and ``sigma_scale`` scales their sigmas, so virtual
   pseudoranges come in through their own declared source with their own noise.
+  Real receivers (``signals`` set: a signal plan per system, e.g.
+  ``["G:1C+2W,1C", "E:1X+7X", "C:2I+6I"]``): the real-signal receiver model
+  (``core.gnss.receiver_model``: group delays, ionosphere-free pairs,
+  Galileo, ``error_model`` weights, elevation mask) and the Klobuchar sets the
+  ephemeris messages carry; ``per_satellite`` makes each satellite its own
+  update, so the innovation gate excludes faulty satellites one by one.
+  Range-error states (``rb``/``rb32``, ``isb`` in the layout) are used when
+  the layout has them (``core.blocks.range_bias``).
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
 from .. import conversions
 from ..core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
 from ..core.gnss.raw_to_pseudoranges import MalformedGnssInput, ReceiverCorrections, TightGnssInput, check_raw_epoch
-from ..core.params import BOOL, FLOAT, FLOATS, STR, ConfigError, ParamSpec, nonneg, positive
+from ..core.params import BOOL, FLOAT, FLOATS, STR, STRS, ConfigError, ParamSpec, nonneg, positive
 from .base import SourceType, navsatfix_check, register
+
+
+def real_receiver_model(p: dict, corr: ReceiverCorrections):
+    """The real-signal receiver model of a gnss_raw source's parameters
+    (``signals``, ``error_model``, ``elevation_mask_deg``, Klobuchar /
+    troposphere settings); errors name the field."""
+    from ..core.gnss.combinations import parse_plan
+    from ..core.gnss.receiver_model import ReceiverModel
+    from ..core.gnss.weighting import ErrorModel
+    plan = {}
+    for entry in p["signals"]:
+        sysc, _, choices = str(entry).partition(":")
+        if not sysc or not choices:
+            raise ConfigError(f"signals: {entry!r} is not 'S:code[+code],...' (e.g. 'G:1C+2W,1C')")
+        plan[sysc.strip()] = [c.strip() for c in choices.split(",") if c.strip()]
+    try:
+        plan = parse_plan(plan)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    errors = None if p["error_model"] == "message" else ErrorModel(weighting=p["error_model"])
+    kb = None if corr.klobuchar is None else {"G": corr.klobuchar["G"]}
+    return ReceiverModel(plan, errors, kb, corr.troposphere, np.deg2rad(p["elevation_mask_deg"]))
 
 
 @register
@@ -71,6 +103,13 @@ class GnssRawSource(SourceType):
         ParamSpec("channels", STR, "tracked", "which channels: tracked (is_virtual false), virtual, or all",
                   choices=("tracked", "virtual", "all")),
         positive("sigma_scale", FLOAT, 1.0, "factor on the message's pseudorange and rate sigmas"),
+        ParamSpec("signals", STRS, [], "real-signal plan per system, 'S:code[+code2],...' (e.g. 'G:1C+2W,1C'); "
+                  "empty = the simulated receiver's legacy channels"),
+        ParamSpec("error_model", STR, "message", "pseudorange weights of the real-signal model: the receiver's own "
+                  "sigmas, or core.gnss.weighting's model", choices=("message", "elevation", "cn0", "elevation_cn0")),
+        nonneg("elevation_mask_deg", FLOAT, 10.0, "elevation mask of the real-signal model (deg)"),
+        ParamSpec("per_satellite", BOOL, False, "one update per satellite (the gate tests each satellite)"),
+        positive("range_bias_release_s", FLOAT, 30.0, "a range-bias slot is kept this long for an unseen satellite"),
     )
     EXTRA_INPUTS = {"ephemeris": ("ephemeris_topic", "hyper_nav_msgs/msg/GnssEphemeris", True)}
 
@@ -79,7 +118,14 @@ class GnssRawSource(SourceType):
         p = self.p
         corr = ReceiverCorrections.from_params(p["ionosphere"], p["klobuchar_alpha"], p["klobuchar_beta"],
                                                p["troposphere"])
-        self.tight = TightGnssInput(corr, p["use_rates"], p["ephemeris_wait_s"])
+        receiver = None
+        if p["signals"]:
+            try:
+                receiver = real_receiver_model(p, corr)
+            except ConfigError as exc:
+                raise ConfigError(f"filter.sources.{self.id}.{exc}") from None
+        self.tight = TightGnssInput(corr, p["use_rates"], p["ephemeris_wait_s"], receiver, p["per_satellite"],
+                                    p["range_bias_release_s"])
 
     def check(self, cfg) -> None:
         if cfg is not None and not cfg.layout.has("clk"):
@@ -93,6 +139,9 @@ class GnssRawSource(SourceType):
         try:
             if role == "ephemeris":
                 self.tight.add_ephemeris(conversions.gnss_ephemeris(msg), conversions.stamp_to_s(msg.header.stamp))
+                kb = conversions.gnss_ephemeris_klobuchar(msg)
+                if kb is not None:
+                    self.tight.add_klobuchar(*kb)
             else:
                 raw = conversions.gnss_raw(msg)
                 raw = self._select(raw, getattr(msg, "is_virtual", ()))
@@ -118,8 +167,8 @@ class GnssRawSource(SourceType):
         if not locked.any():
             return None
         k = self.p["sigma_scale"]
-        return type(raw)(raw.t_s, raw.t_rx_gpst_s, raw.system, raw.prn, raw.pseudorange_m,
-                         raw.pseudorange_sigma_m * k, raw.rate_mps, raw.rate_sigma_mps * k, locked)
+        return replace(raw, pseudorange_sigma_m=raw.pseudorange_sigma_m * k, rate_sigma_mps=raw.rate_sigma_mps * k,
+                       locked=locked)
 
     def on_imu(self, engine) -> None:
         self.tight.feed(engine)

@@ -6,6 +6,8 @@
   sg sa         gyro / accel scale factors              blocks.imu_errors
   clk           receiver clock bias and drift           blocks.clock
   lev           elastic lever-arm modes                 blocks.lever_arm
+  rb rb32       GNSS range biases (16 / 32 satellite slots) blocks.range_bias
+  isb           GNSS inter-system biases (E, C, J vs GPS)  blocks.range_bias
 """
 from __future__ import annotations
 
@@ -14,10 +16,11 @@ from .clock import ReceiverClock
 from .imu_errors import AccelBias, AccelScaleFactor, GyroBias, GyroMarkov, GyroScaleFactor
 from .lever_arm import ElasticLeverArm
 from .nav import Attitude, Position, Velocity
+from .range_bias import InterSystemBias, RangeBiases, RangeBiases32
 
 REGISTRY: dict[str, Block] = {b.name: b for b in (
     Attitude(), Velocity(), Position(), GyroBias(), AccelBias(), GyroMarkov(), GyroScaleFactor(),
-    AccelScaleFactor(), ReceiverClock(), ElasticLeverArm())}
+    AccelScaleFactor(), ReceiverClock(), ElasticLeverArm(), RangeBiases(), RangeBiases32(), InterSystemBias())}
 NAV_BLOCKS = ("att", "vel", "pos")
 
 

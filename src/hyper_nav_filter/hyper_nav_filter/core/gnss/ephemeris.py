@@ -1,29 +1,36 @@
-"""Broadcast-ephemeris satellite orbits and clocks (GPS and BeiDou) and RINEX readers.
+"""Broadcast-ephemeris satellite orbits and clocks (GPS, Galileo, BeiDou, QZSS).
 
 Implements IS-GPS-200 Table 20-IV (seed 004 eq. 8: Kepler orbit with harmonic
 corrections) and the satellite clock polynomial of seed 004 eq. 10
 (``D_satelk = af0 + af1 (t - toc) + af2 (t - toc)^2``) plus the relativistic
-term ``F e sqrtA sin E`` (IS-GPS-200 20.3.3.3.3.1). BeiDou uses the same
-algorithm with the CGCS2000 constants and, for the GEO satellites, the -5 deg
-rotation transform of the BDS-SIS-ICD (B1I, 5.2.4.12).
+term ``F e sqrtA sin E`` (IS-GPS-200 20.3.3.3.3.1). Galileo (OS SIS ICD 2.0,
+5.1.1 and 5.1.3) and QZSS (IS-QZSS-PNT 4.1.2) use the same algorithm with
+their own constants; BeiDou uses it with the CGCS2000 constants and, for the
+GEO satellites, the -5 deg rotation transform of the BDS-SIS-ICD (B1I,
+5.2.4.12).
 
 Time convention
 ---------------
 Every ``t_s`` passed to :func:`satellite_position_ecef` is *continuous seconds
 in the satellite's own system time*: ``week * 604800 + seconds_of_week``, i.e.
-seconds since 1980-01-06 00:00:00 GPST for GPS and since 2006-01-01 00:00:00
-BDT for BeiDou. Use :func:`system_time_s` to convert from continuous GPST
-(BDT = GPST - 14 s, BDT week = GPS week - 1356). Working with continuous time
-avoids every week-crossover special case.
+seconds since 1980-01-06 00:00:00 GPST for GPS, QZSS and Galileo (GST is kept
+on the GPS week count, as RINEX 3 writes it: Galileo week = GST week + 1024;
+the GST - GPST offset, a few ns, is left to the receiver's inter-system bias)
+and since 2006-01-01 00:00:00 BDT for BeiDou. Use :func:`system_time_s` to
+convert from continuous GPST (BDT = GPST - 14 s, BDT week = GPS week - 1356).
+Working with continuous time avoids every week-crossover special case.
 
 Frames: positions/velocities in the Earth-fixed frame of the system (WGS-84
-for GPS, CGCS2000 for BDS; they agree at the cm level, ignored here).
+for GPS/QZSS, GTRF for Galileo, CGCS2000 for BDS; they agree at the cm level,
+ignored here).
+
+The RINEX navigation readers live in :mod:`.rinex_nav`; ``read_rinex2_nav``
+and ``read_rinex3_nav`` are re-exported here.
 """
 from __future__ import annotations
 
 import datetime as _dt
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -36,15 +43,25 @@ MU_GPS_M3PS2 = 3.986005e14
 OMEGA_E_GPS_RADPS = 7.2921151467e-5
 MU_BDS_M3PS2 = 3.986004418e14
 OMEGA_E_BDS_RADPS = 7.2921150e-5
+MU_GAL_M3PS2 = 3.986004418e14        # Galileo OS SIS ICD 2.0, 5.1.1
+OMEGA_E_GAL_RADPS = 7.2921151467e-5
+GPST_SYSTEMS = ("G", "J", "E")       # time kept in continuous GPST seconds (see module docstring)
+# maximum |t - toe| of a usable record (s), as RTKLIB's MAXDTOE*: GPS/QZSS 2 h, Galileo 4 h; BDS 1 h (hourly sets)
+MAX_AGE_S = {"G": 7200.0, "J": 7200.0, "E": 14400.0, "C": 3600.0}
+# Galileo data sources (RINEX 3.05 Table A8 / GnssEphemeris.data_source)
+GAL_INAV_E1B, GAL_FNAV_E5A, GAL_INAV_E5B = 1 << 0, 1 << 1, 1 << 2
+GAL_CLOCK_E1E5A, GAL_CLOCK_E1E5B = 1 << 8, 1 << 9
 BDS_GEO_PRNS = frozenset({1, 2, 3, 4, 5, 59, 60, 61, 62, 63})
 _GPS_EPOCH = _dt.datetime(1980, 1, 6)
 _BDT_EPOCH = _dt.datetime(2006, 1, 1)
 
 
 def constants(system: str) -> tuple[float, float]:
-    """(mu [m^3/s^2], earth rotation rate [rad/s]) of a system 'G' or 'C'."""
-    if system == "G":
+    """(mu [m^3/s^2], earth rotation rate [rad/s]) of a system 'G', 'J', 'E' or 'C'."""
+    if system in ("G", "J"):
         return MU_GPS_M3PS2, OMEGA_E_GPS_RADPS
+    if system == "E":
+        return MU_GAL_M3PS2, OMEGA_E_GAL_RADPS
     if system == "C":
         return MU_BDS_M3PS2, OMEGA_E_BDS_RADPS
     raise ValueError(f"unsupported system {system!r}")
@@ -52,7 +69,7 @@ def constants(system: str) -> tuple[float, float]:
 
 def system_time_s(system: str, t_gpst_s):
     """Continuous GPST seconds -> continuous seconds in the system's time scale."""
-    if system == "G":
+    if system in GPST_SYSTEMS:
         return t_gpst_s
     if system == "C":
         return np.asarray(t_gpst_s, float) - BDT_WEEK_OFFSET * SECONDS_PER_WEEK + BDT_MINUS_GPST_S
@@ -61,15 +78,17 @@ def system_time_s(system: str, t_gpst_s):
 
 def gpst_s(system: str, t_sys_s):
     """Inverse of :func:`system_time_s`: system time -> continuous GPST seconds."""
-    if system == "G":
+    if system in GPST_SYSTEMS:
         return t_sys_s
+    if system != "C":
+        raise ValueError(f"unsupported system {system!r}")
     return np.asarray(t_sys_s, float) + BDT_WEEK_OFFSET * SECONDS_PER_WEEK - BDT_MINUS_GPST_S
 
 
 def calendar_to_system_s(system: str, year, month, day, hour=0, minute=0, second=0.0) -> float:
     """Calendar date *read in the system's own time scale* -> continuous seconds
     of that scale (e.g. a RINEX epoch of a BDS record is in BDT)."""
-    epoch = _GPS_EPOCH if system == "G" else _BDT_EPOCH
+    epoch = _BDT_EPOCH if system == "C" else _GPS_EPOCH
     d = _dt.datetime(int(year), int(month), int(day), int(hour), int(minute)) - epoch
     return d.days * 86400.0 + d.seconds + float(second)
 
@@ -83,9 +102,15 @@ class BroadcastEphemeris:
     system's time (GPST or BDT). Angles in rad, rates in rad/s, ``sqrtA`` in
     m^0.5, ``c**`` radian/metre harmonic amplitudes, clock terms in s, s/s,
     s/s^2; ``tgd`` [s] is TGD (GPS, L1/L2) or TGD1 (BDS, B1I/B3I).
-    ``iode``: issue of data (GPS IODE, BDS AODE; -1 = not known) and
-    ``health``: the broadcast satellite health word (GPS SV health, BDS SatH1),
-    0 = healthy; :func:`select_ephemeris` never picks an unhealthy record."""
+    ``iode``: issue of data (GPS IODE, BDS AODE, Galileo IODnav; -1 = not
+    known) and ``health``: the broadcast satellite health word (GPS SV health,
+    BDS SatH1, Galileo E5b/E1B/E5a HS and DVS bits as RINEX 3 packs them),
+    0 = healthy; :func:`select_ephemeris` never picks an unhealthy record.
+    ``tgd`` / ``tgd2``: the group delays of the record's clock reference
+    (GPS TGD; BDS TGD1 (B1I-B3I) / TGD2 (B2I-B3I); Galileo BGD(E1,E5a) /
+    BGD(E1,E5b)); :mod:`.signal_delays` applies them per signal.
+    ``data_source``: Galileo data-source bits (``GAL_*``; 0 otherwise);
+    ``accuracy_m``: URA / SISA / URAI in metres (0 = not known)."""
     system: str
     prn: int
     toe: float
@@ -112,6 +137,9 @@ class BroadcastEphemeris:
     tgd: float = 0.0
     iode: int = -1
     health: int = 0
+    tgd2: float = 0.0
+    data_source: int = 0
+    accuracy_m: float = 0.0
 
     @property
     def sat_id(self) -> str:
@@ -246,121 +274,38 @@ _STACKED_FIELDS = ("toe", "toc", "week", "sqrtA", "e", "i0", "Omega0", "omega", 
                    "OmegaDot", "cuc", "cus", "crc", "crs", "cic", "cis", "af0", "af1", "af2", "tgd")
 
 
-def select_ephemeris(ephs, sat_id: str, t_s: float, max_age_s: float | None = None):
+def select_ephemeris(ephs, sat_id: str, t_s: float, max_age_s: float | None = None, clock: int = 0):
     """Healthy record of satellite ``sat_id`` whose toe is nearest ``t_s``
     (system time); None if there is none, or if |t - toe| > max_age_s (default
-    7200 s GPS, 3600 s BDS). Records with a non-zero health word are skipped
-    (IS-GPS-200 20.3.3.3.1.4; BDS-SIS-ICD 5.2.4.6): a satellite flagged
-    unhealthy is not used even if its record is the nearest."""
+    :data:`MAX_AGE_S`: 7200 s GPS/QZSS, 14400 s Galileo, 3600 s BDS). Records
+    with a non-zero health word are skipped (IS-GPS-200 20.3.3.3.1.4;
+    BDS-SIS-ICD 5.2.4.6; Galileo OS SIS ICD 5.1.9.3): a satellite flagged
+    unhealthy is not used even if its record is the nearest. ``clock``
+    (Galileo): ``GAL_CLOCK_E1E5A`` or ``GAL_CLOCK_E1E5B`` keeps only records
+    whose clock refers to that pair (F/NAV or I/NAV), falling back to any
+    record when none does; 0 = any."""
     cands = [e for e in ephs if e.sat_id == sat_id and e.health == 0]
+    if clock and cands:
+        pref = [e for e in cands if e.data_source & clock]
+        cands = pref or cands
     if not cands:
         return None
     best = min(cands, key=lambda e: abs(t_s - e.toe_s))
-    lim = max_age_s if max_age_s is not None else (7200.0 if best.system == "G" else 3600.0)
+    lim = max_age_s if max_age_s is not None else MAX_AGE_S.get(best.system, 3600.0)
     return best if abs(t_s - best.toe_s) <= lim + 1e-6 else None
 
 
 # ----------------------------------------------------------------- RINEX readers
-def _f(s: str) -> float:
-    s = s.strip().replace("D", "E").replace("d", "e")
-    return float(s) if s else 0.0
-
-
-def _fields(line: str, start: int, n: int = 4) -> list[float]:
-    return [_f(line[start + 19 * k:start + 19 * (k + 1)]) for k in range(n)]
-
-
-def _build(system, prn, toc_s, clk, orb) -> BroadcastEphemeris:
-    """orb: 7 broadcast-orbit lines of 4 values (RINEX order). Orbit line 1
-    starts with IODE (GPS) / AODE (BDS); line 6 holds SV accuracy, health
-    (GPS SV health / BDS SatH1), TGD (TGD1) and IODC (TGD2)."""
-    (iode, crs, dn, m0), (cuc, e, cus, sqa), (toe, cic, om0, cis), (i0, crc, w, omd), \
-        (idot, _, week, _), (_, health, tgd, _) = orb[:6]
-    week = int(round(week))
-    toc = toc_s - week * SECONDS_PER_WEEK
-    return BroadcastEphemeris(system, prn, toe, toc, week, sqa, e, i0, om0, w, m0, dn, idot, omd,
-                              cuc, cus, crc, crs, cic, cis, clk[0], clk[1], clk[2], tgd,
-                              iode=int(round(iode)), health=int(round(health)))
-
-
 def read_rinex2_nav(path):
-    """Read a RINEX 2.x GPS navigation file.
-
-    Returns ``(ephs, alpha, beta)``: list of BroadcastEphemeris (system 'G') and
-    the Klobuchar ION ALPHA [s, s/sc, s/sc^2, s/sc^3] / ION BETA [s, ...] arrays
-    (None if absent)."""
-    lines = Path(path).read_text().splitlines()
-    alpha = beta = None
-    i = 0
-    while i < len(lines):
-        lab = lines[i][60:].strip()
-        if lab == "ION ALPHA":
-            alpha = np.array([_f(lines[i][2 + 12 * k:14 + 12 * k]) for k in range(4)])
-        elif lab == "ION BETA":
-            beta = np.array([_f(lines[i][2 + 12 * k:14 + 12 * k]) for k in range(4)])
-        i += 1
-        if lab == "END OF HEADER":
-            break
-    ephs = []
-    while i + 7 < len(lines) + 1 and i < len(lines):
-        h = lines[i]
-        if not h.strip():
-            i += 1
-            continue
-        prn = int(h[0:2])
-        yy, mo, dd, hh, mi = (int(h[3 + 3 * k:5 + 3 * k]) for k in range(5))
-        ss = float(h[17:22])
-        year = yy + (2000 if yy < 80 else 1900)
-        toc_s = calendar_to_system_s("G", year, mo, dd, hh, mi, ss)
-        clk = _fields(h, 22, 3)
-        orb = [_fields(lines[i + k].ljust(80), 3) for k in range(1, 8)]
-        ephs.append(_build("G", prn, toc_s, clk, orb))
-        i += 8
-    return ephs, alpha, beta
+    """See :func:`.rinex_nav.read_rinex2_nav` (re-exported)."""
+    from .rinex_nav import read_rinex2_nav as _read
+    return _read(path)
 
 
-def read_rinex3_nav(path):
-    """Read GPS ('G') and BeiDou ('C') records of a RINEX 3.x navigation file
-    (other systems are skipped).
-
-    Returns ``(ephs, iono)`` with ``iono = {'G': (alpha, beta), 'C': (alpha, beta)}``
-    from the GPSA/GPSB and (first) BDSA/BDSB header lines. For BDS records
-    toe/toc/week are BDT, and ``tgd`` is TGD1 (B1I)."""
-    lines = Path(path).read_text().splitlines()
-    hdr: dict[str, np.ndarray] = {}
-    i = 0
-    while i < len(lines):
-        ln = lines[i]
-        i += 1
-        if ln[60:].strip() == "IONOSPHERIC CORR":
-            key = ln[0:4]
-            if key not in hdr:
-                hdr[key] = np.array([_f(ln[5 + 12 * k:17 + 12 * k]) for k in range(4)])
-        if ln[60:].strip() == "END OF HEADER":
-            break
-    nlines = {"G": 8, "C": 8, "E": 8, "J": 8, "I": 8, "R": 4, "S": 4}
-    ephs = []
-    while i < len(lines):
-        h = lines[i]
-        if not h.strip():
-            i += 1
-            continue
-        sysc = h[0]
-        nl = nlines.get(sysc, 8)
-        if sysc in ("G", "C"):
-            prn = int(h[1:3])
-            y, mo, dd, hh, mi, ss = (int(h[4:8]), int(h[9:11]), int(h[12:14]), int(h[15:17]),
-                                     int(h[18:20]), int(h[21:23]))
-            toc_s = calendar_to_system_s(sysc, y, mo, dd, hh, mi, ss)
-            clk = _fields(h.ljust(80), 23, 3)
-            orb = [_fields(lines[i + k].ljust(80), 4) for k in range(1, 8)]
-            ephs.append(_build(sysc, prn, toc_s, clk, orb))
-        i += nl
-    iono = {}
-    for s, a, b in (("G", "GPSA", "GPSB"), ("C", "BDSA", "BDSB")):
-        if a in hdr and b in hdr:
-            iono[s] = (hdr[a], hdr[b])
-    return ephs, iono
+def read_rinex3_nav(path, systems=("G", "C")):
+    """See :func:`.rinex_nav.read_rinex3_nav` (re-exported)."""
+    from .rinex_nav import read_rinex3_nav as _read
+    return _read(path, systems)
 
 
 def shift_ephemeris(eph: BroadcastEphemeris, toe_new_s: float, secular: bool = True) -> BroadcastEphemeris:

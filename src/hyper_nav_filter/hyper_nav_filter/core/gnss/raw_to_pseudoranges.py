@@ -53,7 +53,7 @@ from __future__ import annotations
 import math
 
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -67,22 +67,34 @@ from .propagation import (CARRIER_HZ, KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DE
                           klobuchar_delay_m)
 
 SUPPORTED_SYSTEMS = ("G", "C")
+EPHEMERIS_SYSTEMS = ("G", "E", "C", "J")          # records the store takes (receiver_model: real signals)
 
 
 class MalformedGnssInput(ValueError):
     """A raw epoch or ephemeris record that cannot be used; the message says why."""
 
 
+_EMPTY = np.zeros(0)
+
+
 @dataclass(frozen=True)
 class RawGnssEpoch:
     """One receiver epoch, parallel arrays of N channels (as in
-    hyper_nav_msgs/GnssMeasurements).
+    hyper_nav_msgs/GnssMeasurements). A channel is one tracked *signal*: a
+    multi-frequency receiver reports a satellite once per signal.
 
     t_s: measurement epoch on the filter's time axis (header.stamp);
     t_rx_gpst_s: receiver time tag, continuous GPST seconds
     (gps_week * 604800 + rx_time_of_week_s; = true time + receiver clock / c);
-    system: 'G' | 'C' per channel (anything else is dropped as unsupported);
-    locked: False -> the tracking loop lost lock, the values are invalid."""
+    system: 'G' | 'E' | 'C' | 'J' ... per channel (anything the receiver
+    models do not support is dropped and counted);
+    locked: False -> the code is not valid (lost lock, u-blox prValid = 0).
+
+    Per-signal receiver outputs, each empty (not reported) or of length N:
+    ``signal`` RINEX 3 code ("1C", "5Q", ...; "" = the system's legacy
+    signal, :mod:`.signals`), ``carrier_phase_cycles`` (NaN: none),
+    ``doppler_hz``, ``cn0_dbhz``, ``lock_time_s``, ``tracking_flags``
+    (GnssMeasurements.TRACK_*), ``carrier_frequency_hz``."""
     t_s: float
     t_rx_gpst_s: float
     system: tuple
@@ -92,9 +104,39 @@ class RawGnssEpoch:
     rate_mps: np.ndarray
     rate_sigma_mps: np.ndarray
     locked: np.ndarray
+    signal: tuple = ()
+    carrier_phase_cycles: np.ndarray = field(default_factory=lambda: _EMPTY)
+    doppler_hz: np.ndarray = field(default_factory=lambda: _EMPTY)
+    cn0_dbhz: np.ndarray = field(default_factory=lambda: _EMPTY)
+    lock_time_s: np.ndarray = field(default_factory=lambda: _EMPTY)
+    tracking_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    carrier_frequency_hz: np.ndarray = field(default_factory=lambda: _EMPTY)
+
+    def __len__(self) -> int:
+        return len(self.system)
+
+    def signal_of(self, k: int) -> str:
+        """RINEX code of channel k ('' when the epoch carries no codes)."""
+        return self.signal[k] if self.signal else ""
+
+    def subset(self, idx) -> "RawGnssEpoch":
+        """The epoch with only the channels ``idx`` (optional arrays kept empty when empty)."""
+        idx = np.asarray(idx, int)
+
+        def pick(a):
+            a = np.asarray(a)
+            return a[idx] if len(a) else a
+        return RawGnssEpoch(self.t_s, self.t_rx_gpst_s, tuple(self.system[k] for k in idx), pick(self.prn),
+                            pick(self.pseudorange_m), pick(self.pseudorange_sigma_m), pick(self.rate_mps),
+                            pick(self.rate_sigma_mps), pick(self.locked),
+                            tuple(self.signal[k] for k in idx) if self.signal else (),
+                            pick(self.carrier_phase_cycles), pick(self.doppler_hz), pick(self.cn0_dbhz),
+                            pick(self.lock_time_s), pick(self.tracking_flags), pick(self.carrier_frequency_hz))
 
 
 _ARRAYS = ("prn", "pseudorange_m", "pseudorange_sigma_m", "rate_mps", "rate_sigma_mps", "locked")
+_OPTIONAL = ("signal", "carrier_phase_cycles", "doppler_hz", "cn0_dbhz", "lock_time_s", "tracking_flags",
+             "carrier_frequency_hz")
 
 
 def check_raw_epoch(raw: RawGnssEpoch) -> None:
@@ -105,6 +147,7 @@ def check_raw_epoch(raw: RawGnssEpoch) -> None:
         raise MalformedGnssInput(f"gnss raw: non-finite epoch time (t_s={raw.t_s}, t_rx_gpst_s={raw.t_rx_gpst_s})")
     n = len(raw.system)
     lengths = {name: np.size(getattr(raw, name)) for name in _ARRAYS}
+    lengths.update({name: len(getattr(raw, name)) for name in _OPTIONAL if len(getattr(raw, name))})
     if any(v != n for v in lengths.values()):
         raise MalformedGnssInput(f"gnss raw: array lengths differ: system {n}, "
                                  + ", ".join(f"{k} {v}" for k, v in lengths.items()))
@@ -125,7 +168,7 @@ def check_ephemeris(eph: BroadcastEphemeris) -> None:
                                       "tgd")]
     if not np.all(np.isfinite(vals)):
         raise MalformedGnssInput(f"gnss ephemeris {eph.sat_id}: non-finite field")
-    if eph.system not in SUPPORTED_SYSTEMS:
+    if eph.system not in EPHEMERIS_SYSTEMS:
         raise MalformedGnssInput(f"gnss ephemeris: unsupported system {eph.system!r}")
     if not (eph.sqrtA > 0.0 and 0.0 <= eph.e < 1.0):
         raise MalformedGnssInput(f"gnss ephemeris {eph.sat_id}: sqrtA {eph.sqrtA} / e {eph.e} is not an orbit")
@@ -142,6 +185,7 @@ class EphemerisStore:
     def __init__(self, records=()):
         self._by_sat: dict[tuple[str, int], list[BroadcastEphemeris]] = {}
         self._received: dict[tuple, float] = {}       # (system, prn, week, toe) -> reception time (s)
+        self._select_cache: dict = {}           # receiver_model's per-minute record choice
         for r in records:
             self.add(r)
 
@@ -161,6 +205,7 @@ class EphemerisStore:
         check_ephemeris(eph)
         key = (eph.system, int(eph.prn), eph.week, eph.toe)
         self._received[key] = min(self._received.get(key, math.inf), float(received_s))
+        self._select_cache.clear()
         recs = self._by_sat.setdefault((eph.system, int(eph.prn)), [])
         for i, r in enumerate(recs):
             if r.week == eph.week and r.toe == eph.toe:
@@ -169,12 +214,17 @@ class EphemerisStore:
         recs.append(eph)
         return True
 
+    def records_of(self, system: str, prn: int, received_by_s: float = math.inf) -> list:
+        """The records of a satellite received by ``received_by_s``."""
+        recs = self._by_sat.get((system, int(prn)), [])
+        if recs and received_by_s < math.inf:
+            recs = [r for r in recs if self._received[(r.system, int(r.prn), r.week, r.toe)] <= received_by_s + 1e-9]
+        return recs
+
     def select(self, system: str, prn: int, t_gpst_s: float,
                received_by_s: float = math.inf) -> BroadcastEphemeris | None:
         """The record valid at ``t_gpst_s`` among those received by ``received_by_s``."""
-        recs = self._by_sat.get((system, int(prn)))
-        if recs and received_by_s < math.inf:
-            recs = [r for r in recs if self._received[(r.system, int(r.prn), r.week, r.toe)] <= received_by_s + 1e-9]
+        recs = self.records_of(system, prn, received_by_s)
         if not recs:
             return None
         return select_ephemeris(recs, recs[0].sat_id, float(system_time_s(system, t_gpst_s)))
@@ -305,6 +355,51 @@ def nominal_receiver(state: NavState, lever_arm_b_m, t_s: float) -> tuple[np.nda
     return r, (0.0 if clk is None else float(clk[0] + clk[1] * dt))
 
 
+class RangeBiasSlots:
+    """Which satellite holds which slot of the range-bias block
+    (``blocks.range_bias``): a satellite keeps its slot while it is used and
+    for ``release_s`` after (a short loss of lock keeps its bias state); a
+    newly used satellite takes the lowest free slot, which is reset; when no
+    slot is free the satellite gets none (its measurement variance takes the
+    bias variance instead; counted). Assignment follows the epochs in the
+    order they are processed (epoch order: ``TightGnssInput.ready``)."""
+
+    def __init__(self, n_slots: int, release_s: float = 30.0):
+        self.n = int(n_slots)
+        self.release_s = float(release_s)
+        self.owner: list = [None] * self.n
+        self.slot_of: dict = {}
+        self.last_seen: dict = {}
+
+    def assign(self, sat_ids, t_s: float, counters: Counter | None = None):
+        """(slot per satellite, -1 = none; slots to reset)."""
+        for sat, slot in list(self.slot_of.items()):
+            if t_s - self.last_seen[sat] > self.release_s:        # unseen too long (back now or not): a new bias
+                self.owner[slot] = None
+                del self.slot_of[sat]
+        slots, resets = [], []
+        for sat in sat_ids:
+            s = self.slot_of.get(sat, -1)
+            if s < 0:
+                free = [k for k in range(self.n) if self.owner[k] is None]
+                if free:
+                    s = free[0]
+                    self.owner[s] = sat
+                    self.slot_of[sat] = s
+                    resets.append(s)
+                elif counters is not None:
+                    counters["range_bias_pool_full"] += 1
+            self.last_seen[sat] = t_s
+            slots.append(s)
+        return np.asarray(slots, int), resets
+
+
+def _isb_cols(systems) -> np.ndarray:
+    from ..blocks.range_bias import InterSystemBias
+    order = InterSystemBias.SYSTEMS
+    return np.array([order.index(s) if s in order else -1 for s in systems], int)
+
+
 @dataclass(frozen=True)
 class RawPseudoranges:
     """Measurement of the fusion engine (kind "pseudorange"): a raw epoch with
@@ -312,7 +407,17 @@ class RawPseudoranges:
     filter at the nominal state *of its epoch* (:meth:`model` builds the
     :class:`Pseudoranges` there). The result does not depend on when the
     message arrived (a late epoch is re-processed from its own state), so the
-    live node and an offline run over the bag agree."""
+    live node and an offline run over the bag agree.
+
+    Two receiver models: the simulated receiver's channels (``channels``,
+    ``ephemerides``, ``corrections``: this module's functions), or real
+    signals (``receiver`` + ``observations``: :mod:`.receiver_model`, signal
+    plan, group delays, ionosphere-free pairs, the error model's variances,
+    elevation mask at the nominal position). ``isb_col`` / ``bias_slot``:
+    inter-system-bias column and range-bias slot per satellite
+    (``blocks.range_bias``); ``state_resets`` the slots taken anew
+    (``ErrorStateKF.apply_resets``); ``unslotted_var_m2`` the bias variance
+    added to satellites without a slot."""
     t_s: float
     raw: RawGnssEpoch
     channels: np.ndarray
@@ -320,15 +425,64 @@ class RawPseudoranges:
     corrections: ReceiverCorrections
     use_rates: bool = False
     kind: str = "pseudorange"
+    receiver: object = None
+    observations: object = None
+    states: object = None
+    isb_col: np.ndarray | None = None
+    bias_slot: np.ndarray | None = None
+    bias_block: str = ""
+    state_resets: tuple = ()
+    unslotted_var_m2: float = 0.0
     coupling = "tight"
+
+    @property
+    def sat_ids(self) -> list[str]:
+        if self.observations is not None:
+            return self.observations.sat_ids
+        return [f"{self.raw.system[k]}{int(self.raw.prn[k]):02d}" for k in self.channels]
 
     def pseudoranges(self, state: NavState, lever_arm_b_m) -> Pseudoranges:
         r_ant, clk = nominal_receiver(state, lever_arm_b_m, self.t_s)
-        return corrected_pseudoranges(self.raw, self.channels, self.ephemerides, r_ant, self.corrections, clk,
-                                      self.use_rates)
+        if self.observations is None:
+            p = corrected_pseudoranges(self.raw, self.channels, self.ephemerides, r_ant, self.corrections, clk,
+                                       self.use_rates)
+            keep = None
+        else:
+            p, keep = _real_pseudoranges(self.observations, self.raw, r_ant, clk, self.receiver, self.use_rates,
+                                         self.states)
+        isb, slot = self.isb_col, self.bias_slot
+        if keep is not None:
+            isb = None if isb is None else isb[keep]
+            slot = None if slot is None else slot[keep]
+        if slot is not None and self.unslotted_var_m2 > 0.0 and np.any(slot < 0):
+            p = replace(p, pseudorange_var_m2=p.pseudorange_var_m2 + np.where(slot < 0, self.unslotted_var_m2, 0.0))
+        return replace(p, isb_col=isb, bias_slot=slot, bias_block=self.bias_block)
 
     def model(self, state: NavState, layout, ctx):
         return self.pseudoranges(state, ctx.lever_arm_b_m).model(state, layout, ctx)
+
+
+def _real_pseudoranges(obs, raw, r_ant, clk, receiver, use_rates, states=None):
+    """Pseudoranges of real signals at the nominal receiver (receiver_model;
+    satellite states at the transmit time given by the pseudoranges,
+    ``receiver_model.states_from_pseudoranges``, evaluated once when the
+    measurement is made: they do not depend on the receiver position);
+    satellites below the elevation mask left out. Rates: the first signal's, + c x satellite clock drift (the
+    light-time rate factor, 2e-5 relative, is left out: real receivers here
+    move at walking speed)."""
+    from .receiver_model import corrected_at
+    cor = corrected_at(obs, r_ant, clk, receiver, states)
+    keep = np.flatnonzero(cor.el_rad >= receiver.elevation_mask_rad)
+    rate = rate_var = np.zeros(0)
+    if use_rates:
+        ch0 = np.array([c.channels[0] for c in obs.choices], int)
+        rate = (np.asarray(raw.rate_mps, float)[ch0] + C_MPS * cor.sat_clock_drift_sps)[keep]
+        rate_var = (np.asarray(raw.rate_sigma_mps, float)[ch0] ** 2)[keep]
+        ok = np.isfinite(rate)
+        rate = np.where(ok, rate, 0.0)
+        rate_var = np.where(ok, rate_var, 1e12)             # no Doppler: no information
+    return Pseudoranges(float(raw.t_s), cor.r_sat_e_m[keep], cor.v_sat_e_mps[keep], cor.pr_m[keep],
+                        cor.var_m2[keep], rate, rate_var), keep
 
 
 class TightGnssInput:
@@ -341,21 +495,41 @@ class TightGnssInput:
     system has a record, or until the filter time passes its epoch by
     ``hold_s`` (then the channels without one are dropped). Keep ``hold_s``
     below the engine's ``output_delay_s`` so that released solutions do not
-    depend on the arrival order."""
+    depend on the arrival order.
+
+    ``receiver``: a :class:`.receiver_model.ReceiverModel` for real signals
+    (None: the simulated receiver's channels); ``per_satellite``: one
+    measurement per satellite, so the filter's chi-square innovation gate
+    tests and rejects satellites one by one (fault detection and exclusion
+    in the filter) instead of whole epochs; ``range_bias_release_s``: see
+    :class:`RangeBiasSlots` (used when the engine's layout has ``rb`` or
+    ``rb32``)."""
 
     def __init__(self, corrections: ReceiverCorrections | None = None, use_rates: bool = False,
-                 hold_s: float = 0.5):
+                 hold_s: float = 0.5, receiver=None, per_satellite: bool = False,
+                 range_bias_release_s: float = 30.0):
         self.corrections = corrections if corrections is not None else ReceiverCorrections()
         self.use_rates = bool(use_rates)
         self.hold_s = float(hold_s)
+        self.receiver = receiver
+        self.per_satellite = bool(per_satellite)
+        self.range_bias_release_s = float(range_bias_release_s)
         self.ephemerides = EphemerisStore()
         self.counters: Counter = Counter()
         self._pending: list[RawGnssEpoch] = []
+        self._slots: RangeBiasSlots | None = None
 
     def add_ephemeris(self, eph: BroadcastEphemeris, received_s: float = -math.inf) -> None:
         """Store a record received at ``received_s`` (its message's stamp);
         raises MalformedGnssInput for an invalid one."""
         self.ephemerides.add(eph, received_s)
+
+    def add_klobuchar(self, system: str, alpha, beta) -> None:
+        """A broadcast Klobuchar set (GnssEphemeris.klobuchar_*) for the real-signal model."""
+        if self.receiver is not None:
+            kb = dict(self.receiver.klobuchar or {})
+            kb[system] = (np.asarray(alpha, float), np.asarray(beta, float))
+            self.receiver = replace(self.receiver, klobuchar=kb)
 
     def add_raw(self, raw: RawGnssEpoch) -> None:
         """Queue a raw epoch; raises MalformedGnssInput for a malformed one."""
@@ -364,8 +538,9 @@ class TightGnssInput:
 
     def _complete(self, raw: RawGnssEpoch) -> bool:
         t = raw.t_rx_gpst_s
+        systems = SUPPORTED_SYSTEMS if self.receiver is None else tuple(self.receiver.plan)
         return all(self.ephemerides.select(s, p, t, raw.t_s) is not None
-                   for s, p, ok in zip(raw.system, raw.prn, raw.locked) if ok and s in SUPPORTED_SYSTEMS)
+                   for s, p, ok in zip(raw.system, raw.prn, raw.locked) if ok and s in systems)
 
     def ready(self, t_now_s: float) -> list[RawGnssEpoch]:
         """Pending epochs to process now (complete ones, and those held past
@@ -375,21 +550,70 @@ class TightGnssInput:
             self._pending = [r for r in self._pending if not any(r is o for o in out)]
         return sorted(out, key=lambda r: r.t_s)
 
-    def measurement(self, raw: RawGnssEpoch) -> RawPseudoranges | None:
-        """The engine measurement of a ready epoch (None: no usable channel)."""
-        idx, ephs = select_channels(raw, self.ephemerides, self.counters)
-        if not len(idx):
+    def measurement(self, raw: RawGnssEpoch, cfg=None) -> RawPseudoranges | None:
+        """The engine measurement of a ready epoch (None: no usable channel);
+        with ``per_satellite``, the first of :meth:`measurements`."""
+        m = self.measurements(raw, cfg)
+        return m[0] if m else None
+
+    def measurements(self, raw: RawGnssEpoch, cfg=None) -> list:
+        """The engine measurements of a ready epoch: one RawPseudoranges, or
+        one per satellite (``per_satellite``); empty when no channel is usable.
+        ``cfg``: the engine's FilterConfig (its layout says whether there
+        are range-bias and inter-system-bias states)."""
+        states = None
+        if self.receiver is None:
+            idx, ephs = select_channels(raw, self.ephemerides, self.counters)
+            obs = None
+            n = len(idx)
+            systems = [raw.system[k] for k in idx]
+        else:
+            from .receiver_model import satellite_observations, states_from_pseudoranges
+            obs = satellite_observations(raw, self.ephemerides, self.receiver, self.counters)
+            idx, ephs = np.zeros(0, int), ()
+            n = len(obs)
+            states = states_from_pseudoranges(obs) if n else None
+            systems = [c.system for c in obs.choices]
+        if not n:
             self.counters["epochs_without_usable_channel"] += 1
-            return None
-        return RawPseudoranges(float(raw.t_s), raw, idx, ephs, self.corrections, self.use_rates)
+            return []
+        lay = cfg.layout if cfg is not None else None
+        isb = _isb_cols(systems) if (lay is not None and lay.has("isb")) else None
+        block = next((b for b in ("rb", "rb32") if lay is not None and lay.has(b)), "")
+        slots, resets, var_b = None, (), 0.0
+        if block:
+            from ..blocks import REGISTRY
+            if self._slots is None:
+                self._slots = RangeBiasSlots(REGISTRY[block].size, self.range_bias_release_s)
+            sat_ids = [f"{s}{int(p):02d}" for s, p in zip(systems, (raw.prn[k] for k in idx) if obs is None
+                                                        else (c.prn for c in obs.choices))]
+            slots, new = self._slots.assign(sat_ids, float(raw.t_s), self.counters)
+            sigma = float(cfg.range_bias_sigma_m)
+            resets = tuple((block, int(s), sigma) for s in new)
+            var_b = sigma ** 2
+            self.counters["range_bias_slot_resets"] += len(new)
+        common = dict(use_rates=self.use_rates, receiver=self.receiver, bias_block=block, unslotted_var_m2=var_b)
+        if not self.per_satellite:
+            return [RawPseudoranges(float(raw.t_s), raw, idx, ephs, self.corrections, observations=obs, states=states,
+                                    isb_col=isb, bias_slot=slots, state_resets=resets, **common)]
+        out = []
+        for k in range(n):
+            sl = [k]
+            res_k = tuple(r for r in resets if slots is not None and r[1] == slots[k])
+            out.append(RawPseudoranges(
+                float(raw.t_s), raw, idx[sl] if obs is None else idx, tuple(ephs[j] for j in sl) if obs is None else (),
+                self.corrections, observations=None if obs is None else obs.subset(sl),
+                states=None if states is None else states.subset(sl),
+                isb_col=None if isb is None else isb[sl], bias_slot=None if slots is None else slots[sl],
+                state_resets=res_k, **common))
+        return out
 
     def feed(self, engine) -> int:
         """Queue the measurements of the ready epochs (at the engine's filter
         time) in ``engine`` (a FusionEngine). Returns how many were added."""
         n = 0
         for raw in self.ready(engine.t_latest_s):
-            m = self.measurement(raw)
-            if m is not None:
+            for m in self.measurements(raw, getattr(engine, "cfg", None)):
                 ok, _ = engine.add_measurement(m)
                 n += int(ok)
         return n

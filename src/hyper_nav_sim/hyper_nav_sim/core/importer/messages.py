@@ -91,14 +91,19 @@ def truth_messages(truth, enu_frame: str = "enu", body_frame: str = "base_link")
         yield _stamp_ns(truth.t_s[k]), NavState(**{k2: v for k2, v in values.items() if k2 in fields})
 
 
-def write_bag(path, streams: dict) -> dict:
-    """Write {topic: (msgtype, iterable of (t_ns, msg))} in time order; returns counts per topic."""
+def write_bag(path, streams: dict, qos: dict | None = None) -> dict:
+    """Write {topic: (msgtype, iterable of (t_ns, msg))} in time order; returns counts per topic.
+    ``qos``: {topic: [offered QoS profile]} (``bag.qos_profile``), e.g. transient
+    local for ``/gnss/ephemeris`` so the player offers it latched."""
     import heapq
     def tagged(i, topic, msgtype, gen):
         for t_ns, msg in gen:
             yield t_ns, i, topic, msgtype, msg
     iters = [tagged(i, topic, msgtype, gen) for i, (topic, (msgtype, gen)) in enumerate(streams.items())]
     with BagWriter(path) as w:
+        for topic, profiles in (qos or {}).items():
+            if topic in streams:
+                w.add_topic(topic, streams[topic][0], profiles)
         for t_ns, _, topic, msgtype, msg in heapq.merge(*iters, key=lambda x: (x[0], x[1])):
             w.write(topic, msgtype, int(t_ns), serialize(msg, msgtype))
         return dict(w.counts)

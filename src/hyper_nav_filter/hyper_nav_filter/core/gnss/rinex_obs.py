@@ -1,0 +1,271 @@
+"""RINEX 3 observation files -> raw measurement epochs (one channel per signal).
+
+RINEX 3.05 (IGS/RTCM, 2020) section 5 and Appendix A1-A3: a header with
+``SYS / # / OBS TYPES`` (per system, the observation types, e.g. ``C1C L1C
+D1C S1C``; continuation lines), ``APPROX POSITION XYZ``, ``ANTENNA: DELTA
+H/E/N``, ``GLONASS SLOT / FRQ #``, ``SIGNAL STRENGTH UNIT``, then epochs
+``> yyyy mm dd hh mm ss.sssssss  flag nsat`` followed by one line per
+satellite: ``Snn`` and, per observation type of that system, a 16-column
+field (F14.3 value, loss-of-lock indicator LLI, signal strength SSI).
+Hatanaka-compressed files (``.crx``, ``.crx.gz``; Hatanaka 1996, CRINEX 3)
+are expanded with the ``hatanaka`` package, ``.gz`` files with gzip.
+
+Signals are selected by observation code: ``signals={"G": ["1C", "2W"],
+"E": ["1X", "7X"]}`` keeps only those codes of those systems (``None`` = every
+code of every system; a system absent from the mapping is dropped). A
+requested code the header does not list is named in ``errors`` and counted
+(``missing_code_<S><code>``); the rest is read. Each (satellite, code) with
+a code observation C becomes one channel of a
+:class:`~.raw_to_pseudoranges.RawGnssEpoch`: pseudorange C [m], carrier
+phase L [cycles] (NaN when blank), Doppler D [Hz] (rate = -D x wavelength),
+C/N0 S [dB-Hz] (when ``SIGNAL STRENGTH UNIT`` is DBHZ or absent; NaN
+without an S observation), tracking flags PR_VALID, CP_VALID (L present and
+LLI bit 0 clear), HALF_CYCLE (LLI bit 1 clear), DOPPLER_VALID. RINEX has no
+code sigma and no lock time: ``pseudorange_sigma_m`` comes from the C/N0
+(:func:`.weighting.code_sigma_m`), lock time is left empty.
+
+Epoch times are receiver time (``RCV CLOCK OFFS APPL`` 0) in the file's
+time system (GPS for the project's files), as continuous GPST seconds.
+Event epochs (flags 2-5: header records or comments follow) and cycle-slip
+records (flag 6) are skipped and counted; a malformed epoch or satellite
+line is skipped, named and counted.
+"""
+from __future__ import annotations
+
+import gzip
+import re
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .ephemeris import calendar_to_system_s
+from .raw_to_pseudoranges import RawGnssEpoch
+from .signals import C_MPS, has_frequency, frequency_hz
+from .weighting import code_sigma_m
+
+TRACK_PR_VALID, TRACK_CP_VALID, TRACK_HALF_CYCLE, TRACK_DOPPLER_VALID = 1, 2, 4, 8
+MAX_ERRORS = 20
+_EPOCH = re.compile(r"^> *(\d{4}) +(\d{1,2}) +(\d{1,2}) +(\d{1,2}) +(\d{1,2}) +([\d.]+) +(\d) *(\d+)")
+_GLO_F1_HZ, _GLO_DF1_HZ, _GLO_F2_HZ, _GLO_DF2_HZ = 1602.0e6, 0.5625e6, 1246.0e6, 0.4375e6
+
+
+@dataclass
+class RinexObs:
+    """``epochs`` (RawGnssEpoch, t_s = t_rx_gpst_s = continuous GPST),
+    ``header`` (marker, receiver, antenna, approx_xyz_m, antenna_delta_hen_m,
+    obs_types {system: [types]}, interval_s, time_system), ``counts`` and
+    ``errors`` (the first MAX_ERRORS problems, named)."""
+    epochs: list = field(default_factory=list)
+    header: dict = field(default_factory=dict)
+    counts: Counter = field(default_factory=Counter)
+    errors: list = field(default_factory=list)
+
+    def error(self, text: str) -> None:
+        self.counts["errors"] += 1
+        if len(self.errors) < MAX_ERRORS:
+            self.errors.append(text)
+
+
+def read_text(path) -> str:
+    """The text of a RINEX file (.crx/.crx.gz via hatanaka, .gz via gzip)."""
+    p = Path(path)
+    name = p.name.lower()
+    if ".crx" in name or name.endswith("d.gz") or re.search(r"\.\d\dd(\.gz)?$", name):
+        import hatanaka
+        out = hatanaka.decompress(p)
+        return out.decode("ascii", errors="replace") if isinstance(out, bytes) else out
+    if name.endswith(".gz"):
+        with gzip.open(p, "rt", errors="replace") as f:
+            return f.read()
+    return p.read_text(errors="replace")
+
+
+def _parse_header(lines, obs: RinexObs) -> int:
+    h = obs.header
+    h["obs_types"] = {}
+    h["glonass_k"] = {}
+    h["signal_strength_unit"] = ""
+    i = 0
+    cur_sys, cur_n = None, 0
+    slot_pending = 0
+    while i < len(lines):
+        ln = lines[i]
+        lab = ln[60:].strip()
+        i += 1
+        if lab == "RINEX VERSION / TYPE":
+            h["version"] = float(ln[:9])
+            if h["version"] < 3.0 or ln[20] != "O":
+                raise ValueError(f"not a RINEX 3 observation file (version {ln[:9].strip()}, type {ln[20]!r})")
+        elif lab == "MARKER NAME":
+            h["marker"] = ln[:60].strip()
+        elif lab == "REC # / TYPE / VERS":
+            h["receiver"] = ln[20:40].strip()
+        elif lab == "ANT # / TYPE":
+            h["antenna"] = ln[20:40].strip()
+        elif lab == "APPROX POSITION XYZ":
+            h["approx_xyz_m"] = np.array([float(ln[k * 14:(k + 1) * 14]) for k in range(3)])
+        elif lab == "ANTENNA: DELTA H/E/N":
+            h["antenna_delta_hen_m"] = np.array([float(ln[k * 14:(k + 1) * 14]) for k in range(3)])
+        elif lab == "INTERVAL":
+            h["interval_s"] = float(ln[:10])
+        elif lab == "TIME OF FIRST OBS":
+            h["time_system"] = ln[48:51].strip() or "GPS"
+        elif lab == "SIGNAL STRENGTH UNIT":
+            h["signal_strength_unit"] = ln[:20].strip()
+        elif lab == "SYS / # / OBS TYPES":
+            if ln[0] != " ":
+                cur_sys, cur_n = ln[0], int(ln[3:6])
+                h["obs_types"][cur_sys] = []
+            types = ln[7:60].split()
+            h["obs_types"][cur_sys] += types
+        elif lab == "GLONASS SLOT / FRQ #":
+            if ln[:3].strip():
+                slot_pending = int(ln[:3])
+            body = ln[4:60]
+            for k in range(8):
+                f = body[k * 7:(k + 1) * 7]
+                if f.strip():
+                    sat, kk = f[:3], int(f[4:7])
+                    h["glonass_k"][int(sat[1:])] = kk
+        elif lab == "END OF HEADER":
+            break
+    else:
+        raise ValueError("no END OF HEADER")
+    if not h["obs_types"]:
+        raise ValueError("no SYS / # / OBS TYPES record in the header")
+    del cur_n, slot_pending
+    return i
+
+
+def _frequency(sysc: str, code: str, prn: int, header: dict) -> float:
+    if sysc == "R":
+        k = header["glonass_k"].get(prn)
+        if k is None:
+            return np.nan
+        return _GLO_F1_HZ + k * _GLO_DF1_HZ if code[0] == "1" else (
+            _GLO_F2_HZ + k * _GLO_DF2_HZ if code[0] == "2" else np.nan)
+    return frequency_hz(sysc, code) if has_frequency(sysc, code) else np.nan
+
+
+def _plan(obs: RinexObs, signals) -> dict:
+    """{system: [(code, iC, iL, iD, iS)]} column indices of the kept signals."""
+    plan = {}
+    for sysc, types in obs.header["obs_types"].items():
+        wanted = None if signals is None else signals.get(sysc)
+        if signals is not None and wanted is None:
+            obs.counts[f"system_not_selected_{sysc}"] += 1
+            continue
+        codes = [t[1:] for t in types if t[0] == "C"]
+        if wanted is not None:
+            for c in wanted:
+                if c not in codes:
+                    obs.counts[f"missing_code_{sysc}{c}"] += 1
+                    obs.error(f"signal {sysc} {c}: no C{c} in the header's SYS / # / OBS TYPES "
+                              f"({' '.join(types)})")
+            codes = [c for c in codes if c in wanted]
+        rows = []
+        for c in codes:
+            idx = {t: (types.index(t + c) if (t + c) in types else -1) for t in "CLDS"}
+            rows.append((c, idx["C"], idx["L"], idx["D"], idx["S"]))
+        if rows:
+            plan[sysc] = rows
+    return plan
+
+
+def _field(line: str, k: int):
+    """(value or nan, LLI int) of observation field k of a satellite line."""
+    f = line[3 + 16 * k:3 + 16 * (k + 1)]
+    v = f[:14].strip()
+    lli = f[14:15].strip()
+    return (float(v) if v else np.nan), (int(lli) if lli.isdigit() else 0)
+
+
+def read_rinex_obs(path, signals=None, max_epochs: int | None = None) -> RinexObs:
+    """Read a RINEX 3 observation file (see the module docstring)."""
+    obs = RinexObs()
+    lines = read_text(path).splitlines()
+    i = _parse_header(lines, obs)
+    if obs.header.get("time_system", "GPS") not in ("GPS", ""):
+        raise ValueError(f"{Path(path).name}: time system {obs.header['time_system']} (only GPS time is read)")
+    plan = _plan(obs, signals)
+    dbhz = obs.header["signal_strength_unit"] in ("DBHZ", "")
+    name = Path(path).name
+    n_lines = len(lines)
+    while i < n_lines:
+        ln = lines[i]
+        if not ln.startswith(">"):
+            obs.error(f"{name} line {i + 1}: expected an epoch record ('>'), got {ln[:20]!r}")
+            i += 1
+            continue
+        m = _EPOCH.match(ln)
+        if not m:
+            obs.error(f"{name} line {i + 1}: malformed epoch record {ln[:40]!r}")
+            i += 1
+            continue
+        y, mo, d, hh, mi = (int(m.group(k)) for k in range(1, 6))
+        sec, flag, nsat = float(m.group(6)), int(m.group(7)), int(m.group(8))
+        body = lines[i + 1:i + 1 + nsat]
+        i += 1 + nsat
+        if flag > 1:
+            obs.counts[f"event_epochs_flag{flag}"] += 1
+            continue
+        t = calendar_to_system_s("G", y, mo, d, hh, mi, sec)
+        ep = _epoch(t, body, plan, dbhz, obs, name, i - nsat)
+        if ep is not None:
+            obs.epochs.append(ep)
+            obs.counts["epochs"] += 1
+            if max_epochs is not None and len(obs.epochs) >= max_epochs:
+                break
+        if flag == 1:
+            obs.counts["epochs_power_failure_flag"] += 1
+    return obs
+
+
+def _epoch(t, body, plan, dbhz, obs, name, first_line) -> RawGnssEpoch | None:
+    sysl, prn, code, pr, cp, dop, cn0, flags, freq = [], [], [], [], [], [], [], [], []
+    for j, ln in enumerate(body):
+        sysc = ln[:1]
+        rows = plan.get(sysc)
+        if rows is None:
+            continue
+        try:
+            p = int(ln[1:3])
+            for c, iC, iL, iD, iS in rows:
+                v, _ = _field(ln, iC)
+                if not np.isfinite(v):
+                    continue
+                lv, lli = _field(ln, iL) if iL >= 0 else (np.nan, 0)
+                dv, _ = _field(ln, iD) if iD >= 0 else (np.nan, 0)
+                sv, _ = _field(ln, iS) if iS >= 0 else (np.nan, 0)
+                fl = TRACK_PR_VALID
+                if np.isfinite(lv) and not (lli & 1):
+                    fl |= TRACK_CP_VALID
+                if np.isfinite(lv) and not (lli & 2):
+                    fl |= TRACK_HALF_CYCLE
+                if np.isfinite(dv):
+                    fl |= TRACK_DOPPLER_VALID
+                sysl.append(sysc)
+                prn.append(p)
+                code.append(c)
+                pr.append(v)
+                cp.append(lv)
+                dop.append(dv)
+                cn0.append(sv if dbhz else np.nan)
+                flags.append(fl)
+                freq.append(_frequency(sysc, c, p, obs.header))
+        except ValueError as exc:
+            obs.error(f"{name} line {first_line + j + 1} ({ln[:3]}): {exc}")
+            continue
+    if not sysl:
+        obs.counts["epochs_without_selected_signal"] += 1
+        return None
+    f = np.asarray(freq, float)
+    d = np.asarray(dop, float)
+    c0 = np.asarray(cn0, float)
+    lam = C_MPS / f
+    obs.counts["signals"] += len(sysl)
+    return RawGnssEpoch(float(t), float(t), tuple(sysl), np.asarray(prn, int), np.asarray(pr, float),
+                        code_sigma_m(c0), -d * lam, np.full(len(d), 0.1) * lam, np.ones(len(sysl), bool),
+                        tuple(code), np.asarray(cp, float), d, c0, np.zeros(0), np.asarray(flags, np.uint8), f)

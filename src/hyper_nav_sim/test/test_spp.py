@@ -1,0 +1,69 @@
+"""The spp command in its short mode on the shared recordings: TLSE (RINEX)
+with RTKLIB beside on the same epochs and the walk log (UBX), and on a bag
+of imported receiver data; JSON and PNGs written, figures printed."""
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+import yaml
+
+from hyper_nav_sim import import_data
+from hyper_nav_sim.spp import main
+
+_spec = importlib.util.spec_from_file_location(
+    "hyper_nav_gnss_real_data", Path(__file__).resolve().parents[2] / "hyper_nav_filter" / "test" / "core" / "gnss"
+    / "_real_data.py")
+rd = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(rd)
+
+
+def _data_dir() -> str:
+    return str(rd.real_file(rd.TLSE_OBS).parents[1])
+
+
+@pytest.mark.slow
+def test_spp_tlse_short_beside_rtklib(tmp_path, capsys):
+    assert main(["tlse", "--short", "30", "--out", str(tmp_path), "--data-dir", _data_dir()]) == 0
+    out = capsys.readouterr().out
+    assert "read in" in out and "RTKLIB IFLC" in out and "RTKLIB BRDC" in out
+    doc = json.loads((tmp_path / "spp.json").read_text())
+    df = doc["runs"]["gps_galileo_beidou_dual_frequency"]
+    assert df["ours_same_epochs"]["epochs"] == df["rtklib_same_epochs"]["epochs"] == 30
+    assert df["ours_same_epochs"]["horizontal_rms_m"] < 1.0 and df["ours_same_epochs"]["vertical_rms_m"] < 2.0
+    assert df["counts"]["unhealthy_E18"] == 30
+    assert df["rtklib"]["codes"]["G"] == [["1C"], ["2W"]]
+    for png in ("errors_gps_galileo_beidou_dual_frequency.png", "errors_gps_single_frequency.png", "skyplot.png"):
+        assert (tmp_path / png).stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_spp_walk_and_a_bag(tmp_path, capsys):
+    assert main(["walk", "--short", "40", "--out", str(tmp_path / "walk"), "--data-dir", _data_dir()]) == 0
+    doc = json.loads((tmp_path / "walk" / "spp.json").read_text())
+    r = doc["runs"]["dual_frequency"]
+    assert r["ours_all"]["epochs"] == 40 and r["status"] == {"ok": 40}
+    # the RTK reference's absolute datum lies well above every single-point solution, RTKLIB's too
+    # (docs/gnss_real_data.md): the spread about the mean is what compares
+    assert r["ours_same_epochs"]["horizontal_rms_about_mean_m"] < 2.0
+    assert r["ours_same_epochs"]["mean_enu_m"][2] < -10.0 and r["rtklib_same_epochs"]["mean_enu_m"][2] < -10.0
+    f = tmp_path / "imp.yaml"
+    f.write_text(yaml.safe_dump({"preset": "ubx", "gnss": {"file": str(rd.real_file(rd.WALK_UBX))}}))
+    import_data.write(import_data.load_import(f), tmp_path / "bag")
+    capsys.readouterr()
+    assert main(["--bag", str(tmp_path / "bag"), "--short", "20", "--out", str(tmp_path / "bagout"), "--no-plots"]) == 0
+    doc = json.loads((tmp_path / "bagout" / "spp.json").read_text())
+    assert doc["kind"] == "bag" and doc["epochs"] == 20 and doc["records"] == 19
+    st = {k: r["status"] for k, r in doc["runs"].items()}      # the default runs: every epoch solved
+    assert st["dual_frequency"].get("ok", 0) + st["dual_frequency"].get("fault_excluded", 0) == 20, st
+    assert st["gps_single_frequency"] == {"no_test": 20}      # 4 GPS records in the log: no redundancy to test
+
+
+def test_spp_bad_description_exits_2(tmp_path, capsys):
+    f = tmp_path / "d.yaml"
+    f.write_text(yaml.safe_dump({"preset": "rinex", "gnss": {"file": "x.crx"}, "spp": {"runz": {}}}))
+    assert main([str(f)]) == 2
+    assert "spp.runz: unknown field" in capsys.readouterr().err
