@@ -37,7 +37,9 @@ from scipy.stats import chi2
 
 from hyper_nav_sim.graph import apply_overrides
 
-from .cases import prepare, run_case
+from hyper_nav_aiding.offline import prepare
+
+from .cases import run_case
 
 AFTER = {"filter.config.state_blocks": ["att", "vel", "pos", "bg", "ba", "clk", "rb"],
          "filter.config.range_bias_sigma_m": 2.2, "filter.config.range_bias_tau_s": 1500.0,
