@@ -413,3 +413,195 @@ def log_order(*topics: TopicArrays) -> tuple[np.ndarray, np.ndarray]:
     row = np.concatenate([np.arange(len(t), dtype=np.int64) for t in topics])
     order = np.lexsort((np.concatenate([t.seq for t in topics]), np.concatenate([t.t_ns for t in topics])))
     return which[order], row[order]
+
+
+# --- writing ---------------------------------------------------------------------------
+@dataclass
+class TopicColumns:
+    """One topic to write: its messages are ``prototype`` (a rosbags message
+    object) with the numeric fields of ``columns`` ({dotted path: (n, ...)
+    array}) set per message, logged at ``t_ns``; strings and sequence lengths
+    are the prototype's for every message."""
+    msgtype: str
+    prototype: object
+    t_ns: np.ndarray
+    columns: dict
+    offered_qos_profiles: list = field(default_factory=list)
+
+
+def payloads(msgtype: str, prototype, columns: dict, n: int) -> np.ndarray:
+    """(n x bytes) CDR payloads: the prototype serialized by rosbags, tiled,
+    every column written at its field's offset."""
+    from .bag import serialize
+    raw = np.frombuffer(serialize(prototype, msgtype), np.uint8)
+    fields = {f.path: f for f in layout(msgtype, raw.tobytes())[0]}
+    block = np.tile(raw, (n, 1))
+    for path, values in columns.items():
+        f = fields.get(path)
+        if f is None or f.dtype.startswith("S"):
+            raise ValueError(f"{msgtype}: no numeric field {path!r} in the prototype's layout")
+        v = np.ascontiguousarray(np.asarray(values).astype(f.dtype, copy=False).reshape((n,) + f.shape))
+        size = v.itemsize * int(np.prod(f.shape, dtype=np.int64))
+        block[:, f.offset:f.offset + size] = v.reshape(n, -1).view(np.uint8).reshape(n, size)
+    return block
+
+
+_REC_HEAD = np.dtype([("op", "u1"), ("len", "<u8"), ("channel", "<u2"), ("sequence", "<u4"), ("log_time", "<u8"),
+                      ("publish_time", "<u8")])             # packed: 31 bytes before the CDR payload
+
+
+def write_arrays(path, topics: dict, chunk_size: int = 1 << 20) -> dict:
+    """Write {topic: TopicColumns} as a new rosbag2/MCAP bag laid out as
+    ``bag.BagWriter`` lays it out (profile ros2, ros2msg schemas, cdr channels
+    with offered QoS and type hash, uncompressed chunks with CRCs, message
+    indexes, summary, data-section CRC, the rosbag2 metadata record and
+    metadata.yaml). Messages go in log-time order, ties in the order of
+    ``topics`` then of the rows (as ``importer.messages.write_bag``). Returns
+    the message counts per topic."""
+    from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex,
+                              Opcode, RecordBuilder, Schema, Statistics, SummaryOffset)
+
+    from .bag import _version, _yaml_dump, rosbag2_metadata
+
+    path = Path(path)
+    try:
+        path.mkdir(parents=True)
+    except FileExistsError:
+        raise FileExistsError(errno.EEXIST, "bag exists already, not overwriting", str(path)) from None
+    store = typestore()
+    # channels in the order of their first message (as BagWriter registers them), ties in the given order
+    first = [(int(np.min(tc.t_ns)) if len(tc.t_ns) else 2**63, i) for i, tc in enumerate(topics.values())]
+    tie = {t: i for i, t in enumerate(topics)}
+    topics = {t: topics[t] for _, t in sorted(zip(first, topics))}
+    names = list(topics)
+    schemas, channels, blocks = {}, {}, []
+    for i, (topic, tc) in enumerate(topics.items()):
+        if tc.msgtype not in schemas:
+            msgdef, _ = store.generate_msgdef(tc.msgtype, ros_version=2)
+            schemas[tc.msgtype] = Schema(id=len(schemas) + 1, name=tc.msgtype, encoding="ros2msg", data=msgdef.encode())
+        meta = {"offered_qos_profiles": _yaml_dump(tc.offered_qos_profiles) if tc.offered_qos_profiles else "",
+                "topic_type_hash": store.hash_rihs01(tc.msgtype)}
+        channels[topic] = Channel(id=i + 1, topic=topic, message_encoding="cdr", schema_id=schemas[tc.msgtype].id,
+                                  metadata=meta)
+        n = len(tc.t_ns)
+        blocks.append(payloads(tc.msgtype, tc.prototype, tc.columns, n))
+    which = np.concatenate([np.full(len(tc.t_ns), i, np.int64) for i, tc in enumerate(topics.values())])
+    row = np.concatenate([np.arange(len(tc.t_ns), dtype=np.int64) for tc in topics.values()])
+    t_all = np.concatenate([np.asarray(tc.t_ns, np.int64) for tc in topics.values()])
+    ranks = np.array([tie[t] for t in topics], np.int64)[which]
+    order = np.lexsort((row, ranks, t_all))
+    which, row, t_all = which[order], row[order], t_all[order]
+    rec_len = np.array([31 + b.shape[1] for b in blocks], np.int64)[which]
+    ends = np.cumsum(rec_len)
+    chunk_of = (ends - 1) // chunk_size
+    bounds = np.flatnonzero(np.diff(chunk_of)) + 1
+    starts = np.concatenate([[0], bounds]).astype(np.int64)
+    stops = np.concatenate([bounds, [len(which)]]).astype(np.int64)
+
+    f = (path / f"{path.name}.mcap").open("xb")
+    crc = 0
+
+    def put(data):
+        nonlocal crc
+        crc = zlib.crc32(data, crc)
+        f.write(data)
+
+    put(MCAP_MAGIC)
+    rb = RecordBuilder()
+    Header(profile="ros2", library=f"hyper-nav rosbag2 array writer (mcap-python {_version('mcap')})").write(rb)
+    for s in schemas.values():
+        s.write(rb)
+    for c in channels.values():
+        c.write(rb)
+    put(rb.end())
+    chunk_indexes = []
+    for a, b in zip(starts.tolist(), stops.tolist()):
+        w, r, t = which[a:b], row[a:b], t_all[a:b]
+        lens = rec_len[a:b]
+        offs = np.concatenate([[0], np.cumsum(lens)[:-1]]).astype(np.int64)
+        data = np.empty(int(lens.sum()), np.uint8)
+        index = {}
+        for i in np.unique(w).tolist():
+            sel = np.flatnonzero(w == i)
+            blk = blocks[i][r[sel]]
+            head = np.empty(len(sel), _REC_HEAD)
+            head["op"] = _OP_MESSAGE
+            head["len"] = 22 + blk.shape[1]
+            head["channel"] = i + 1
+            head["sequence"] = r[sel]
+            head["log_time"] = t[sel]
+            head["publish_time"] = t[sel]
+            rec = np.hstack([head.view(np.uint8).reshape(len(sel), 31), blk])
+            data[(offs[sel])[:, None] + np.arange(rec.shape[1])] = rec
+            entries = np.empty((len(sel), 2), "<u8")
+            entries[:, 0], entries[:, 1] = t[sel], offs[sel]
+            index[i + 1] = entries
+        raw = data.tobytes()
+        chunk = Chunk(compression="", data=raw, message_start_time=int(t.min()), message_end_time=int(t.max()),
+                      uncompressed_crc=zlib.crc32(raw), uncompressed_size=len(raw))
+        start = f.tell()
+        rb = RecordBuilder()
+        chunk.write(rb)
+        body = rb.end()
+        put(body)
+        mi_start = f.tell()
+        offsets, pieces, pos = {}, [], 0
+        for cid in sorted(index):
+            e = index[cid].tobytes()
+            rec = struct.pack("<BQHI", _OP_MESSAGE_INDEX, 2 + 4 + len(e), cid, len(e)) + e
+            offsets[cid] = mi_start + pos
+            pieces.append(rec)
+            pos += len(rec)
+        put(b"".join(pieces))
+        chunk_indexes.append(ChunkIndex(message_start_time=chunk.message_start_time,
+                                        message_end_time=chunk.message_end_time, chunk_start_offset=start,
+                                        chunk_length=len(body), message_index_offsets=offsets,
+                                        message_index_length=pos, compression="", compressed_size=len(raw),
+                                        uncompressed_size=len(raw)))
+    counts = {t: int(len(tc.t_ns)) for t, tc in topics.items()}
+    t_min = int(t_all.min()) if len(t_all) else None
+    t_max = int(t_all.max()) if len(t_all) else None
+    info = rosbag2_metadata({t: (tc.msgtype, tc.offered_qos_profiles, store.hash_rihs01(tc.msgtype))
+                             for t, tc in topics.items()}, counts, t_min, t_max, f"{path.name}.mcap")
+    rb = RecordBuilder()
+    meta_start = f.tell()
+    Metadata(name="rosbag2", metadata={"serialized_metadata":
+                                        _yaml_dump(info["rosbag2_bagfile_information"])}).write(rb)
+    meta = rb.end()
+    put(meta)
+    rb = RecordBuilder()
+    DataEnd(crc).write(rb)
+    f.write(rb.end())
+    summary_start = f.tell()
+    sb = RecordBuilder()
+    groups = []
+
+    def group(opcode, records):
+        g0 = sb.count
+        for rec in records:
+            rec.write(sb)
+        groups.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + g0, group_length=sb.count - g0))
+    group(Opcode.SCHEMA, schemas.values())
+    group(Opcode.CHANNEL, channels.values())
+    group(Opcode.STATISTICS, [Statistics(
+        attachment_count=0, channel_count=len(channels),
+        channel_message_counts={channels[t].id: counts[t] for t in names}, chunk_count=len(chunk_indexes),
+        message_count=int(sum(counts.values())), message_start_time=t_min or 0, message_end_time=t_max or 0,
+        metadata_count=1, schema_count=len(schemas))])
+    group(Opcode.CHUNK_INDEX, chunk_indexes)
+    group(Opcode.ATTACHMENT_INDEX, [])
+    group(Opcode.METADATA_INDEX, [MetadataIndex(offset=meta_start, length=len(meta), name="rosbag2")])
+    offset_start = summary_start + sb.count
+    for g in groups:
+        g.write(sb)
+    summary = sb.end()
+    summary_crc = zlib.crc32(struct.pack("<BQQQ", Opcode.FOOTER, 8 + 8 + 4, summary_start, offset_start),
+                             zlib.crc32(summary))
+    f.write(summary)
+    rb = RecordBuilder()
+    Footer(summary_start=summary_start, summary_offset_start=offset_start, summary_crc=summary_crc).write(rb)
+    f.write(rb.end())
+    f.write(MCAP_MAGIC)
+    f.close()
+    (path / "metadata.yaml").write_text(_yaml_dump(info))
+    return counts
