@@ -64,12 +64,17 @@ def sigma_blocks(sols, layout) -> dict:
 
 
 def main(args) -> int:
+    """The replay on arrays: the bag read into field arrays (``core/bag_arrays``),
+    the core fed from them (``hyper_nav_filter.offline_arrays``: the results of
+    ``run_offline``, bit for bit), scored and written one array operation per
+    quantity (``core/fast_scoring``)."""
     from hyper_nav_filter.core.attitude import C_b_n_to_euler
-    from hyper_nav_filter.offline import run_offline
+    from hyper_nav_filter.offline_arrays import run_offline_arrays
 
     from . import report
-    from .core.bag import deserialize, read_bag
-    from .core.importer import kfgins, score
+    from .core import fast_scoring
+    from .core.bag_arrays import read_arrays
+    from .core.importer import kfgins
     from .progress import Progress
     try:
         cfg, initial, sources, skip_s, limits, reference, _ = _setup(args)
@@ -79,33 +84,31 @@ def main(args) -> int:
         return 2
     from hyper_nav_filter.sources import make_sources, parse_sources
     inputs = {i.topic.lstrip("/") for src in make_sources(parse_sources(sources), cfg) for i in src.inputs()}
-    reader = read_bag(args.bag)
-    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader
-               if r.topic.lstrip("/") in inputs | {"truth/state"}]
-    if reader.truncated:
-        print(f"[replay_filter] WARNING: bag is truncated ({reader.error}); replaying what was readable")
-    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in records]
-    t0, t1 = (min(stamps), max(stamps)) if stamps else (0.0, 0.0)
+    bag = read_arrays(args.bag)
+    topics = [t for name, t in bag.topics.items() if name.lstrip("/") in inputs]
+    truth_topic = next((t for name, t in bag.topics.items() if name.lstrip("/") == "truth/state"), None)
+    if bag.truncated:
+        print(f"[replay_filter] WARNING: bag is truncated ({bag.error}); replaying what was readable")
+    stamps = [t.stamp_s for t in topics + ([truth_topic] if truth_topic is not None else []) if len(t)]
+    t0, t1 = (min(float(s.min()) for s in stamps), max(float(s.max()) for s in stamps)) if stamps else (0.0, 0.0)
     progress = Progress("replay_filter", total=t1 - t0)
-
-    def fed():
-        for k, rec in enumerate(records):
-            if k % 2000 == 0:
-                progress.update(stamps[k] - t0)
-            yield rec
-    sols, eng = run_offline(fed(), cfg, initial, sources=sources, final=True, keep_history=args.smooth)
+    n_fed = sum(len(t) for t in topics)
+    sols, eng, _ = run_offline_arrays(topics, cfg, initial, sources=sources, final=True, keep_history=args.smooth,
+                                      progress=lambda k: progress.update((t1 - t0) * k / max(n_fed, 1)))
     progress.update(t1 - t0)
     progress.done(f"{len(sols)} solutions")
     if not sols:
         print("replay_filter: no solution (no IMU data after the initial epoch?)")
         return 1
     nav = report.states_from_solutions(sols)
-    truth_msgs = [m for t, m in records if t.lstrip("/") == "truth/state"]
+    has_truth = truth_topic is not None and len(truth_topic) > 0
     summary = None
+    truth_table = _truth_table(args) if args.truth else None
+    truth_states = fast_scoring.states_from_topic(truth_topic) if has_truth and not args.truth else None
     if args.truth:
-        err = score.errors_against(nav, _truth_table(args))
-    elif truth_msgs:
-        err = report.errors(nav, report.states_from_msgs(truth_msgs))
+        err = fast_scoring.errors_against(nav, truth_table)
+    elif has_truth:
+        err = fast_scoring.errors(nav, truth_states)
     else:
         err = None
         print("[replay_filter] no truth (--truth or truth/state in the bag): solution only")
@@ -113,20 +116,22 @@ def main(args) -> int:
         err = {**err, "t": err["t"] - initial_t_s}        # report.skip_s counts from the initial epoch
         summary = report.summarize(err, skip_s)
         print(report.format_table(summary, limits, reference))
-    if args.smooth and (args.truth or truth_msgs):
+    if args.smooth and (args.truth or has_truth):
         from hyper_nav_filter.offline import smooth
         sm_nav = report.states_from_solutions(smooth(eng))
-        sm_err = score.errors_against(sm_nav, _truth_table(args)) if args.truth else \
-            report.errors(sm_nav, report.states_from_msgs(truth_msgs))
+        sm_err = fast_scoring.errors_against(sm_nav, truth_table) if args.truth else \
+            fast_scoring.errors(sm_nav, truth_states)
         print("fixed-interval RTS smoother over the same pass:")
         sm_err = {**sm_err, "t": sm_err["t"] - initial_t_s}
         print(report.format_table(report.summarize(sm_err, skip_s), limits, reference))
     if args.write_nav:
-        rph = np.array([C_b_n_to_euler(s.state.C_b_n) for s in sols])
-        kfgins.write_rows(args.write_nav, kfgins.nav_rows(nav["t"], nav["lat"], nav["lon"], nav["alt"], nav["vel"], rph))
+        rph = np.column_stack(C_b_n_to_euler(nav["C"])) if len(sols) > 1 else \
+            np.array([C_b_n_to_euler(s.state.C_b_n) for s in sols])
+        fast_scoring.write_rows(args.write_nav, kfgins.nav_rows(nav["t"], nav["lat"], nav["lon"], nav["alt"],
+                                                                nav["vel"], rph))
         print(f"[replay_filter] wrote {args.write_nav} ({len(sols)} epochs, KF-GINS .nav)")
     if args.write_std:
-        kfgins.write_rows(args.write_std, kfgins.std_rows(nav["t"], sigma_blocks(sols, cfg.layout)))
+        fast_scoring.write_rows(args.write_std, kfgins.std_rows(nav["t"], sigma_blocks(sols, cfg.layout)))
         print(f"[replay_filter] wrote {args.write_std} ({len(sols)} epochs, KF-GINS STD)")
     print(f"engine counters: {dict(eng.counters)}")
     return 0
