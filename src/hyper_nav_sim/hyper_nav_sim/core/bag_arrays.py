@@ -87,6 +87,17 @@ except Exception:  # pragma: no cover - numba missing: the plain loop
     _walk = _walk_py
 
 
+def warm_up() -> None:
+    """Compile the record walk into numba's on-disk cache (setup), for the
+    writable and the read-only buffers it is given."""
+    rec = np.zeros(9 + 4, np.uint8)
+    rec[1] = 4
+    walk_records(rec)
+    ro = rec.copy()
+    ro.setflags(write=False)
+    walk_records(ro)
+
+
 def walk_records(buf: np.ndarray, pos: int = 0, end: int | None = None, compiled: bool = True):
     """(opcodes, body offsets, body lengths, stop position) of the complete
     records of ``buf[pos:end]`` (an MCAP record stream: u8 opcode, u64 LE

@@ -4,7 +4,11 @@ loop over epochs in Python and stay the reference the tests compare with),
 to 1e-12 (the attitude error of a stack of rotations goes through scipy in
 one call; the per-epoch path multiplies 3x3 matrices one pair at a time).
 
-MEASURED_PLACEHOLDER
+Measured (CPU seconds, least of three, 2-core machine at load 17, the
+300 s peer-format set): the truth's rotations of 60,001 rows built one row
+at a time 4.39 s, as one stack 0.17 s; attitude errors of 15,001 pairs one
+at a time 3.05 s, as one stack 0.016 s; a 15,001 x 22 STD table through
+``np.savetxt`` 0.17 s, as one format operation 0.13 s (the same text).
 """
 from __future__ import annotations
 
