@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 import pytest
-from hyper_nav_msgs.msg import NavState
+from hyper_nav_msgs.msg import LateInput, NavState
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import NavSatFix
 
@@ -30,9 +30,10 @@ def _records(bag):
     return recs, reader
 
 
-def _offline(recs):
+def _offline(recs, late_inputs=None):
     sc = load_scenario("default")
-    return run_offline([r for r in recs if r[0] in INPUTS], sc.filter_config(), sc.filter_initial_state())
+    return run_offline([r for r in recs if r[0] in INPUTS], sc.filter_config(), sc.filter_initial_state(),
+                       late_inputs=late_inputs)
 
 
 def test_committed_bag_offline_accuracy():
@@ -62,7 +63,7 @@ def test_replay_filter_smooth_reports_the_smoother_next_to_the_filter(capsys):
 
 @pytest.mark.graph
 def test_committed_bag_replays_into_live_fusion_node():
-    outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix}
+    outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix, "nav/late_inputs": LateInput}
     player = {"bag": str(BAG), "rate": 4.0, "topics": INPUTS, "wait_for_subscribers": 1,
               "publish_clock": False}
     with Graph("default", nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
@@ -73,11 +74,13 @@ def test_committed_bag_replays_into_live_fusion_node():
             assert g.procs["player"].wait(timeout=60) == 0, g.log("player")
             assert c.wait_for(lambda m: len(m["nav/state"]) >= 950, 20.0), (len(c.messages["nav/state"]), g.log("fusion"))
             live = list(c.messages["nav/state"])
+            late = list(c.messages["nav/late_inputs"])
     recs, _ = _records(BAG)
-    sols, _ = _offline(recs)
+    sols, eng = _offline(recs, late)
+    assert eng.replay.missing == ()
     assert len(live) == len(sols) == 950
     for msg, sol in zip(live, sols):
-        assert msg.lat_rad == pytest.approx(sol.state.lat_rad, abs=1e-13)
+        assert (msg.lat_rad, msg.lon_rad, msg.alt_m) == (sol.state.lat_rad, sol.state.lon_rad, sol.state.alt_m)
         np.testing.assert_allclose(msg.vel_enu_mps, sol.state.vel_enu_mps, atol=1e-9)
 
 

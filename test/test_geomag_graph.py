@@ -48,6 +48,9 @@ def test_geomag_fixes_reach_the_fusion_filter_over_dds(tmp_path):
     geomag = run["diagnostics"]["hyper_nav_aiding: geomag"]
     n_fix = int(geomag["fixes"])
     assert n_fix >= DURATION_S - START_S - 3 and geomag["map"] == "ok", geomag
+    # run_graph gave the node the flight's date; the map is of that date: nothing implied (issue 27)
+    assert geomag["flight_epoch_decimal_year"] == str(scenario["magnetometer.epoch_decimal_year"]) == "2025.5"
+    assert float(geomag["map_epoch_bias_mean_nT"]) == 0.0 and float(geomag["map_epoch_bias_track_nT"]) == 0.0
     # every fix that reached the filter was taken (the last may come after it stopped)
     assert int(fusion["processed geomag/fix"]) == int(fusion["position_fix_accepted"]) >= n_fix - 1
     # on time: none stale; after its epoch was released only under heavy load (4 of 26 at load 15 on 2 cores)

@@ -1,6 +1,9 @@
 """The geomagnetic node over real DDS: fixes from a good map, no fix (counted
 on /diagnostics) when the solution leaves the map, for a NaN sample and
-with a mismatched map file, and the node keeps running in every case."""
+with a mismatched map file, and the node keeps running in every case; the
+map's epoch against the flight's date (issue 27): half a day apart, the
+implied bias on /diagnostics and in every geomag/quality; the issue's 1.5
+years, the node refuses to start (exit 2)."""
 import os
 import pathlib
 import signal
@@ -17,6 +20,7 @@ from sensor_msgs.msg import MagneticField, NavSatFix
 
 from hyper_nav_aiding.core.geomag_config import GeomagConfig
 from hyper_nav_aiding.core.geomag_map import GeomagMap, MapSpec
+from hyper_nav_aiding.core.map_epoch import map_epoch_offset
 from hyper_nav_aiding.core.matching import LocalFrame
 from hyper_nav_sim.testing import TopicCollector
 
@@ -24,6 +28,7 @@ SPEC = MapSpec(lat_min_deg=44.0, lat_max_deg=44.5, lon_min_deg=110.0, lon_max_de
                refine_factor=40, alt_m=26000.0)
 OFFSET_N_M = 300.0            # the solution is 300 m north of the truth
 OFF_MAP_S = (6.0, 7.0)        # the solution jumps off the map for these samples
+FLIGHT_EPOCH = 2025.5 + 0.5 / 365.25     # half a day after the map's epoch: +0.045 nT here, within 0.1 nT
 
 
 def _stamp(msg, t):
@@ -31,9 +36,10 @@ def _stamp(msg, t):
     return msg
 
 
-def _start(tmp, ns, cfg: GeomagConfig, domain_id):
+def _start(tmp, ns, cfg: GeomagConfig, domain_id, flight_epoch):
     params = tmp / f"{ns}.params.yaml"
-    params.write_text(yaml.safe_dump({"/**": {"ros__parameters": cfg.flat()}}))
+    p = {**cfg.flat(), "magnetometer.epoch_decimal_year": float(flight_epoch)}
+    params.write_text(yaml.safe_dump({"/**": {"ros__parameters": p}}))
     exe = pathlib.Path(get_package_prefix("hyper_nav_aiding")) / "lib" / "hyper_nav_aiding" / "geomag_node"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), PYTHONUNBUFFERED="1")
     log = open(tmp / f"{ns}.log", "w")
@@ -61,7 +67,8 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
             "map": {k: getattr(SPEC, k) for k in SPEC.__dataclass_fields__}, "ekf": {"map_error_corr_length_m": 0.0}}
     good = GeomagConfig.from_dict(base)
     bad = GeomagConfig.from_dict({**base, "map": {**base["map"], "epoch_decimal_year": 2026.0}})
-    procs = {"good": _start(tmp_path, "good", good, domain_id), "bad": _start(tmp_path, "bad", bad, domain_id)}
+    procs = {"good": _start(tmp_path, "good", good, domain_id, FLIGHT_EPOCH),
+             "bad": _start(tmp_path, "bad", bad, domain_id, 2026.0)}
     topics = {"/diagnostics": DiagnosticArray}
     for ns in procs:
         topics[f"/{ns}/geomag/fix"] = NavSatFix
@@ -78,7 +85,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
             time.sleep(1.0)                     # discovery is asymmetric: let the readers match these writers too
             # a track north at 2 km/s from 44.1 N 110.2 E; the solution is OFFSET_N_M north of it
             frame = LocalFrame(np.deg2rad(44.1), np.deg2rad(110.2), 26000.0)
-            truth = {}
+            truth, nav_at = {}, {}
             for k in range(0, 121):
                 t = 0.1 * k
                 true_en = np.array([0.0, 2000.0 * t])
@@ -88,6 +95,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
                     lat = np.deg2rad(44.7)                      # off the map (north of 44.5 N)
                 nav = _stamp(NavState(), t)
                 nav.lat_rad, nav.lon_rad, nav.alt_m = float(lat), float(lon), 26000.0
+                nav_at[round(t, 1)] = (float(lat), float(lon))
                 nav.vel_enu_mps = [0.0, 2000.0, 0.0]
                 nav.state_blocks, nav.state_dim = ["att:3", "vel:3", "pos:3"], 9
                 P = np.eye(9)
@@ -147,6 +155,17 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
         assert diag["bad"]["no_map"] == str(n_mag) and diag["bad"]["rejected_mag_nan"] == "1"
         assert not msgs["/bad/geomag/fix"]
         assert all(q.reason.startswith("no map") for q in msgs["/bad/geomag/quality"])
+        # the map's epoch half a day before the flight: the implied bias (core.map_epoch eq. 2) over the
+        # map at start on /diagnostics, and at each solution and stamp in geomag/quality
+        epoch = map_epoch_offset(SPEC, FLIGHT_EPOCH)
+        assert 0.04 < epoch.bias_mean_nT < 0.05
+        assert diag["good"]["map_epoch_bias_mean_nT"] == str(round(epoch.bias_mean_nT, 4))
+        assert diag["good"]["flight_epoch_decimal_year"] == str(FLIGHT_EPOCH)
+        assert diag["good"]["map_brought_forward"] == "False" and diag["good"]["map_epoch_tolerance_nT"] == "0.1"
+        for q in q_good:
+            t = q.header.stamp.sec + q.header.stamp.nanosec * 1e-9
+            assert q.map_epoch_bias_nt == pytest.approx(epoch.bias_nT(*nav_at[round(t, 1)], t), abs=1e-9)
+        assert abs(float(diag["good"]["map_epoch_bias_track_nT"]) - q_good[-1].map_epoch_bias_nt) < 1e-4
     finally:
         for p in procs.values():
             if p.poll() is None:
@@ -156,3 +175,26 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
                 p.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 p.kill()
+
+
+@pytest.mark.graph
+def test_geomag_node_refuses_a_map_of_another_epoch_at_start(tmp_path):
+    """The issue's case: a 2025.5 map at 33 S 143 E, 32 km, for a flight on
+    2027.0: the node logs both fields and the implied -16.4 nT and exits 2
+    before it subscribes (no map file needed: the check is the model's)."""
+    spec = MapSpec(epoch_decimal_year=2025.5, alt_m=32000.0, lat_min_deg=-33.5, lat_max_deg=-25.5,
+                   lon_min_deg=140.5, lon_max_deg=143.5, grid_step_deg=0.05, refine_factor=40)
+    cfg = GeomagConfig.from_dict({"map": {k: getattr(spec, k) for k in spec.__dataclass_fields__},
+                                  "map_file": str(tmp_path / "never_read.npz")})
+    domain_id = (int(os.environ.get("ROS_DOMAIN_ID", "0")) or 77) + 1
+    proc = _start(tmp_path, "moved", cfg, domain_id, 2027.0)
+    try:
+        rc = proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    log = (tmp_path / "moved.log").read_text()
+    assert rc == 2, log
+    for s in ("geomag.map.epoch_decimal_year = 2025.5", "magnetometer.epoch_decimal_year = 2027",
+              "-16.4 nT", "geomag.map_epoch_tolerance_nT = 0.1 nT"):
+        assert s in log, log

@@ -130,22 +130,27 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
     assert int(fusion["processed nav/model_update"]) == 1
     print("fusion, late copies:", {k: v for k, v in fusion.items() if "test/late_fix" in k or "late" in k},
           "sent", sent)
-    assert int(fusion["processed test/late_fix"]) == sent > 100
-    assert not {k: v for k, v in fusion.items() if k.endswith("_after_release")}
+    # every late copy reached the node; one that came after its epoch's release (a loaded machine)
+    # is still applied, one older than the reprocess window rejected as stale: counted either way
+    stale = int(fusion.get("rejected test/late_fix (gnss_pos_stale)", 0))
+    assert int(fusion["received test/late_fix"]) == sent > 100
+    assert int(fusion["processed test/late_fix"]) + stale == sent
 
-    # live = offline over the bag in its log order (late fixes and the update included)
+    # live = offline over the bag, bit for bit (late fixes and the update included): stamp order,
+    # and each input the node received behind the IMU (nav/late_inputs) where it received it
     sc = g.scenario
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
-               if r.topic in ("/imu/data_raw", "/gnss/fix", "/gnss/vel", "/test/late_fix", "/nav/model_update")]
+               if r.topic in ("/imu/data_raw", "/gnss/fix", "/gnss/vel", "/test/late_fix", "/nav/model_update",
+                              "/nav/late_inputs")]
     sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
+    assert eng.replay.missing == () and eng.replay.placed >= sent - stale
     live = run["nav"]
     assert len(live) == len(sols) > 40 * (DURATION_S - 2)
     assert eng.counters["model_update_received"] == 1 and eng.counters["gnss_pos_late"] > 0
     for msg, sol in zip(live, sols):
         assert stamp_to_s(msg.header.stamp) == pytest.approx(sol.t_s, abs=1e-9)
-        assert msg.lat_rad == pytest.approx(sol.state.lat_rad, abs=1e-13)
-        assert msg.alt_m == pytest.approx(sol.state.alt_m, abs=1e-7)
-        np.testing.assert_allclose(msg.vel_enu_mps, sol.state.vel_enu_mps, atol=1e-9)
+        assert (msg.lat_rad, msg.lon_rad, msg.alt_m) == (sol.state.lat_rad, sol.state.lon_rad, sol.state.alt_m)
+        assert np.array_equal(np.asarray(msg.vel_enu_mps), sol.state.vel_enu_mps)
     # the update changed the solution from its epoch on (vs the offline core without it)
     base, _ = run_offline([r for r in records if r[0] != "/nav/model_update"], sc.filter_config(),
                           sc.filter_initial_state(), sc.filter_sources(), final=True)

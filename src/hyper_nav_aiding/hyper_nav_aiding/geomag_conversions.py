@@ -102,5 +102,6 @@ def match_quality_fields(res: MatchResult, frame_id: str) -> dict:
               "sequence_length": int(res.sequence_length),
               "along_gradient_sigma_m": num(res.along_gradient_sigma_m),
               "across_gradient_sigma_m": num(res.across_gradient_sigma_m),
-              "gradient_nt_per_km": num(res.gradient_nt_per_km), "compute_time_s": float(res.compute_time_s)})
+              "gradient_nt_per_km": num(res.gradient_nt_per_km), "compute_time_s": float(res.compute_time_s),
+              "map_epoch_bias_nt": num(res.map_epoch_bias_nT)})
     return d

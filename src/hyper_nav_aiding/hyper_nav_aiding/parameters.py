@@ -25,6 +25,8 @@ _DESCRIPTIONS = {
     "max_extrapolation_s": "alpha_beta: no virtual ranges this long after the last fix [s]",
     "max_state_age_s": "fused: no virtual ranges from a nav/state this old without IMU to carry it [s]",
     "fused_state_delay_s": "fused: use the nav/state stamped at or before epoch - this [s]",
+    "input_hold_s": "an epoch is processed once the IMU is this far past it: inputs stamped by it and up to "
+                    "this late are in, so the output does not depend on their arrival order [s]",
     "alpha_beta_accel_sigma_mps2": "alpha-beta tracker: vehicle acceleration sigma [m/s^2]",
     "alpha_beta_fix_sigma_m": "alpha-beta tracker: fix sigma [m]",
     "clock_drift_rate_sigma_mps2": "receiver clock tracker: drift rate sigma [m/s^2]",

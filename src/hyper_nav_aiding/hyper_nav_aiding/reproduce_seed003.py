@@ -20,6 +20,13 @@ bound's sigma, along/across as RMS; ours / bound ratios on the RMS). Writes
 ``table3.json``, ``series.npz`` (error curves) and ``fig_<level>nT.png``
 (the paper's Figs. 6-9: latitude and longitude error against time).
 
+The map's epoch is checked against the flight's date
+(``magnetometer.epoch_decimal_year``; ``core.map_epoch``, issue 27): beyond
+``geomag.map_epoch_tolerance_nT`` the run is refused (exit 2, the error
+names both fields and the implied nT); within it the implied bias is
+printed and written to ``table3.json`` (``map_epoch``); with
+``geomag.map_bring_forward`` the map is brought to the flight's date first.
+
 ``--short``: a 60 s flight (pure INS to 30 s, then matching), one level,
 two seeds, a coarse map of the first degree of the flight: a few seconds,
 run by the test suite.
@@ -49,6 +56,7 @@ from hyper_nav_filter.core.config import FilterConfig
 from .core.geomag_aiding import GeomagAiding
 from .core.geomag_config import GeomagConfig
 from .core.geomag_map import GeomagMap, cached_map_path, get_or_build, load_map
+from .core.map_epoch import bring_forward, check as check_map_epoch
 from .geomag_bound import FlightBound
 from .offline_geomag import AidedFlight, baro_measurements, imu_streams, mag_total, position_errors
 from .seed003_table import format_table, plot, summarize
@@ -219,7 +227,8 @@ def run_seed(job: SeedJob) -> dict:
     base = derived_scenario(load_scenario(job.scenario_path), job.overrides)
     sc = derived_scenario(base, truth_overrides(base, rc, job.seed))
     traj = sc.trajectory()
-    gmap = load_map(job.map_path, gcfg.map)
+    epoch = check_map_epoch(gcfg, float(sc["magnetometer.epoch_decimal_year"]))
+    gmap = _at_flight_date(load_map(job.map_path, gcfg.map), epoch)
     end = float(sc["duration_s"])
     t_all = np.arange(0.0, np.floor(end) + 1e-9, 1.0)
     tr = traj.truth(t_all)
@@ -243,7 +252,7 @@ def run_seed(job: SeedJob) -> dict:
         mag_t, mag_nT = mag_total(sc_l, traj)
         for alg in rc.algorithms:
             cfg = cell_geomag_config(gcfg, rc, sc_l, level, alg)
-            aiding = GeomagAiding(cfg, gmap)
+            aiding = GeomagAiding(cfg, gmap, epoch=epoch)
             fl = starts[state_blocks_of(rc, sc, alg)].fork()
             fl.run_until(end, aiding, mag_t, mag_nT)
             m = _metrics(position_errors(fl.posterior, traj, t_all), t_all, grad, gcfg.start_s)
@@ -254,6 +263,11 @@ def run_seed(job: SeedJob) -> dict:
                       "counters": dict(aiding.counters)})
             out["cells"][f"{level:g}/{alg}"] = m
     return out
+
+
+def _at_flight_date(gmap: GeomagMap, epoch) -> GeomagMap:
+    """The map brought to the flight's date when the scenario asks for it."""
+    return bring_forward(gmap, epoch.measurement_epoch_decimal_year) if epoch.brought_forward else gmap
 
 
 def _truth_gradient(gmap: GeomagMap, tr) -> np.ndarray:
@@ -342,11 +356,13 @@ def _run(args) -> int:
     rc = ReproConfig.from_dict(rdict)
     gcfg = GeomagConfig.from_dict(g)
     sc = derived_scenario(sc0, overrides)
+    epoch = check_map_epoch(gcfg, float(sc["magnetometer.epoch_decimal_year"]))    # MapEpochError: exit 2
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = (lambda m: print(f"[reproduce_seed003] {m}", flush=True))
-    gmap = get_or_build(gcfg.map, gcfg.map_cache_dir or None, workers=max(1, args.workers or os.cpu_count() or 1),
-                        log=log)
+    log(f"map epoch: {epoch.describe()}, within geomag.map_epoch_tolerance_nT = {gcfg.map_epoch_tolerance_nT:g} nT")
+    gmap = _at_flight_date(get_or_build(gcfg.map, gcfg.map_cache_dir or None,
+                                        workers=max(1, args.workers or os.cpu_count() or 1), log=log), epoch)
     map_path = str(cached_map_path(gcfg.map, gcfg.map_cache_dir or None))
 
     # the bound: independent of the seed (same flight, prior, noise statistics)
@@ -381,6 +397,7 @@ def _run(args) -> int:
     table = summarize(results, rc, bounds, vbounds)
     table["wall_s"] = {"seeds": wall, "total": time.perf_counter() - t_start}
     table["map"] = {"file": map_path, **{k: getattr(gmap.spec, k) for k in gmap.spec.__dataclass_fields__}}
+    table["map_epoch"] = {**epoch.summary(), "map_epoch_tolerance_nT": gcfg.map_epoch_tolerance_nT}
     text = format_table(table, len(results))
     print(text)
     series = {"INS": np.stack([r["ins"]["series_en_m"] for r in results])}

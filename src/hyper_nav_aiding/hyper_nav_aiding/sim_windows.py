@@ -154,19 +154,19 @@ def triggered_window(flight: SimulatedFlight, cfg, lc, monitor_from_s: float = -
     for k in range(len(imu.t_s)):
         t = imu.t_s[k]
         eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
-        mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        windows = [mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])]
         while j < len(flight.gnss) and flight.gnss[j].t_s <= t + 1e-9:
             eng.add_measurement(flight.gnss[j])
-            mon.add_gnss(flight.gnss[j])
+            windows.append(mon.add_gnss(flight.gnss[j]))
             j += 1
-        if k % release_every != release_every - 1:
-            continue
-        for sol in eng.release():
-            state = sol.state.copy()
-            state.extra = {}
-            window = mon.add_state(state, sol.P)
-            if window is not None:
-                return window, state.t_s, mon
+        if k % release_every == release_every - 1:
+            for sol in eng.release():
+                state = sol.state.copy()
+                state.extra = {}
+                windows.append(mon.add_state(state, sol.P))
+        window = next((w for w in windows if w is not None), None)
+        if window is not None:
+            return window, window.t_end_s, mon
     return None, None, mon
 
 

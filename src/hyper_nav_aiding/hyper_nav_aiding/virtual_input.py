@@ -34,7 +34,7 @@ class VirtualGnssInput:
     def on_ephemeris(self, msg) -> str | None:
         self._count("gnss/ephemeris")
         try:
-            return self.core.add_ephemeris(fconv.gnss_ephemeris(msg))
+            return self.core.add_ephemeris(fconv.gnss_ephemeris(msg), fconv.stamp_to_s(msg.header.stamp))
         except (ValueError, TypeError) as exc:
             return self.core.reject("rejected_ephemeris_malformed", str(exc))
 

@@ -1,6 +1,7 @@
 """The fusion core over a recording read into arrays (one array per message
 field, ``hyper_nav_sim.core.bag_arrays``), with the results of
-``offline.run_offline`` over the same messages, bit for bit (tested).
+``offline.run_offline`` over the same messages, bit for bit (tested), fed
+in the same order (stamp order: a recording without late-input reports).
 
 The IMU, which drives time and is nearly every message, goes straight to
 ``FusionEngine.add_imu_rates`` from its arrays (the IMU source's own
@@ -60,17 +61,38 @@ def log_order(topics) -> tuple[np.ndarray, np.ndarray]:
     return which[order], row[order]
 
 
+def stamp_order(topics) -> tuple[np.ndarray, np.ndarray]:
+    """(topic index, row) of every message in ``replay_order``'s stamp order: header stamp, then topic
+    name without its leading '/', then occurrence (log order within a topic and stamp)."""
+    names = [t.topic.lstrip("/") for t in topics]
+    rank = {n: r for r, n in enumerate(sorted(names))}
+    which = np.concatenate([np.full(len(t), i, np.int64) for i, t in enumerate(topics)])
+    row = np.concatenate([np.arange(len(t), dtype=np.int64) for t in topics])
+    stamp = np.concatenate([t.stamp_ns for t in topics])
+    name_rank = np.array([rank[n] for n in names], np.int64)[which]
+    order = np.lexsort((np.concatenate([t.seq for t in topics]), name_rank, stamp))
+    return which[order], row[order]
+
+
+ORDERS = {"stamp": stamp_order, "log": log_order}
+
+
 def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: dict | None = None,
-                       final: bool = False, keep_history: bool = False, order=None,
+                       final: bool = False, keep_history: bool = False, order: str = "stamp",
                        progress=None) -> tuple[list[Solution], FusionEngine, SourceRouter]:
     """``offline.run_offline`` over topic arrays: (solutions, engine, router).
-    ``order``: (topic index, row) arrays of the feed (default: log order, as
-    ``run_offline`` is fed a bag today); ``progress(k)`` is called every
-    20,000 messages with the count fed so far."""
+    ``order``: ``"stamp"`` (default: ``run_offline``'s order for a recording
+    without late-input reports, ``replay_order.live_order``) or ``"log"``
+    (the bag's log order); ``progress(k)`` is called every 20,000 messages
+    with the count fed so far. Late-input reports (``nav/late_inputs``) are
+    not placed here: a recording that has them goes through ``run_offline``."""
     eng = FusionEngine(cfg, initial, keep_history=keep_history)
+    eng.replay = None                          # as run_offline's: no ReplayOrder (no late inputs placed)
     router = SourceRouter(eng, sources or DEFAULT_TABLE)
-    topics = [t for t in topics if t.topic.lstrip("/") in router.routes]
-    which, rows = log_order(topics) if order is None else order
+    topics = [t for t in topics if t.topic.lstrip("/") in router.routes and len(t)]
+    if not topics:
+        return (list(eng.release(final=True)) if final else []), eng, router
+    which, rows = ORDERS[order](topics)
     out: list[Solution] = []
     fast = []                                   # per topic: the IMU source fed from arrays, or None
     for t in topics:

@@ -52,14 +52,16 @@ class FoxgloveSink:
 
     # ---- inputs -------------------------------------------------------------------
     def on_truth(self, m) -> None:
-        self.tracker.on_truth(m)
+        self._log_errors(self.tracker.on_truth(m))
         self._location("truth", live_view.navstate_point(m))
 
     def on_nav(self, m) -> None:
         self._location("fused", live_view.navstate_point(m))
-        rec = self.tracker.on_nav(m)
-        if rec is not None:
-            self.errors.log(rec, log_time=live_view.stamp_ns(m.header.stamp))
+        self._log_errors(self.tracker.on_nav(m))
+
+    def _log_errors(self, records) -> None:
+        for t_ns, rec in records:
+            self.errors.log(rec, log_time=t_ns)
             self.counts["errors"] += 1
 
     def on_gnss(self, m) -> None:
@@ -118,24 +120,48 @@ HANDLERS = {"truth/state": "on_truth", "nav/state": "on_nav", "gnss/fix": "on_gn
             "tf_static": "on_tf"}
 
 
-def feed_bag(sink: FoxgloveSink, bag, rate: float = 0.0) -> int:
-    """Every message of the bag the view uses, in log order; ``rate`` > 0 paces
-    it at that multiple of real time (a live-looking replay), 0 = as fast as possible."""
+def feed_bag(sink: FoxgloveSink, bag, rate: float = 0.0, reorder_s: float = 10.0) -> int:
+    """Every message of the bag the view uses, in stamp order (a reorder
+    buffer of ``reorder_s``: the bag's log order is its recorder's arrival
+    order, and the view must not depend on it); ``rate`` > 0 paces it at that
+    multiple of real time (a live-looking replay), 0 = as fast as possible.
+    Messages more than ``reorder_s`` out of order are fed as they come and
+    counted in ``sink.counts["late"]``."""
+    from hyper_nav_filter.core.reorder import StampReorder
+
     from .core.bag import deserialize, read_bag
     reader = read_bag(bag)
+    buf = StampReorder(reorder_s)
     n, t_first, w0 = 0, None, time.monotonic()
+
+    def emit(items):
+        nonlocal n, t_first
+        for t_ns, h, m in items:
+            if rate > 0:
+                t_first = t_ns if t_first is None else t_first
+                wait = (t_ns - t_first) * 1e-9 / rate - (time.monotonic() - w0)
+                if wait > 0:
+                    time.sleep(wait)
+            getattr(sink, h)(m)
+            n += 1
     for r in reader:
         h = HANDLERS.get(r.topic.lstrip("/"))
         if h is None:
             continue
-        if rate > 0:
-            t_first = r.t_ns if t_first is None else t_first
-            wait = (r.t_ns - t_first) * 1e-9 / rate - (time.monotonic() - w0)
-            if wait > 0:
-                time.sleep(wait)
-        getattr(sink, h)(deserialize(r.raw, r.msgtype))
-        n += 1
+        m = deserialize(r.raw, r.msgtype)
+        t_ns = _stamp_ns(m, r.t_ns)
+        emit(buf.push(t_ns, r.topic, (t_ns, h, m)))
+    emit(buf.flush())
+    sink.counts["late"] = buf.late
     return n
+
+
+def _stamp_ns(m, default: int) -> int:
+    """header.stamp in ns (TFMessage: its first transform's), else the log time."""
+    h = getattr(m, "header", None)
+    if h is None and getattr(m, "transforms", None):
+        h = m.transforms[0].header
+    return default if h is None else live_view.stamp_ns(h.stamp)
 
 
 def main(argv=None) -> int:

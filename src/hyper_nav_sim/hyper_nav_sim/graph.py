@@ -57,7 +57,6 @@ import numpy as np
 import yaml
 from ament_index_python.packages import get_package_prefix
 
-from hyper_nav_filter.core.initial_state import state_values
 
 from .core.fields import suggestion
 from .core.scenario import Scenario, ScenarioError, check_override_key, known_fields, load_scenario, validate
@@ -158,11 +157,10 @@ def flat_parameters(block: dict, prefix: str, skip=()) -> dict:
 def fusion_parameters(sc: Scenario) -> dict:
     """The fusion node's ROS parameters, all derived from the scenario."""
     from hyper_nav_filter.sources import spec_to_params
-    init = sc.filter_initial_state()
     start = sc.trajectory().truth([0.0])          # map frame origin: the true start point
     params = {f"filter.{k}": v for k, v in sc.filter_config().as_dict().items()}
     params.update(spec_to_params(sc.filter_source_specs()))
-    params.update({f"init.{k}": v for k, v in state_values(init).items()})
+    params.update({f"init.{k}": v for k, v in sc.filter_initial_values().items()})
     params.update({
         "tf.magnetometer_position_b_m": [float(x) for x in sc["magnetometer.lever_arm_b_m"]],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
@@ -357,7 +355,11 @@ class Graph:
         elif name == "geomag":
             p = flat_parameters(self.scenario.data.get("geomag", {}), "geomag", skip=("reproduction",))
             p.update({"min_subscribers": self._subscribers([AIDING_OUTPUTS["geomag"]]),
-                      "qos.depth": int(self.scenario["graph.qos_depth"])})
+                      "qos.depth": int(self.scenario["graph.qos_depth"]),
+                      # the flight's date: the node checks its map's epoch against it (issue 27)
+                      "magnetometer.epoch_decimal_year": float(self.scenario["magnetometer.epoch_decimal_year"])})
+            # the solution a sample is matched against: the newest released when the IMU reaches its stamp
+            p.setdefault("geomag.nav_reference_lag_s", float(self.scenario.filter_config().output_delay_s))
         elif name == "lever_arm":
             p = aiding_parameters(self.scenario, AIDING_NODES["lever_arm"][0])
         elif name == "recorder":

@@ -70,6 +70,7 @@ def main(args) -> int:
     quantity (``core/fast_scoring``)."""
     from hyper_nav_filter.core.attitude import C_b_n_to_euler
     from hyper_nav_filter.offline_arrays import run_offline_arrays
+    from hyper_nav_filter.replay_order import LATE_INPUTS_TOPIC
 
     from . import report
     from .core import fast_scoring
@@ -87,14 +88,25 @@ def main(args) -> int:
     bag = read_arrays(args.bag)
     topics = [t for name, t in bag.topics.items() if name.lstrip("/") in inputs]
     truth_topic = next((t for name, t in bag.topics.items() if name.lstrip("/") == "truth/state"), None)
+    late = next((t for name, t in bag.topics.items() if name.lstrip("/") == LATE_INPUTS_TOPIC), None)
     if bag.truncated:
         print(f"[replay_filter] WARNING: bag is truncated ({bag.error}); replaying what was readable")
     stamps = [t.stamp_s for t in topics + ([truth_topic] if truth_topic is not None else []) if len(t)]
     t0, t1 = (min(float(s.min()) for s in stamps), max(float(s.max()) for s in stamps)) if stamps else (0.0, 0.0)
     progress = Progress("replay_filter", total=t1 - t0)
     n_fed = sum(len(t) for t in topics)
-    sols, eng, _ = run_offline_arrays(topics, cfg, initial, sources=sources, final=True, keep_history=args.smooth,
-                                      progress=lambda k: progress.update((t1 - t0) * k / max(n_fed, 1)))
+    if late is not None and len(late):
+        # a recording of a live node that received inputs behind the IMU: the replay feeds the node's own
+        # order (hyper_nav_filter.replay_order, its nav/late_inputs reports) on the per-message path
+        from hyper_nav_filter.offline import run_offline
+        from .core.bag import deserialize, read_bag
+        records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(args.bag)
+                   if r.topic.lstrip("/") in inputs | {LATE_INPUTS_TOPIC}]
+        sols, eng = run_offline(records, cfg, initial, sources=sources, final=True, keep_history=args.smooth)
+    else:                                   # stamp order (no input came late): the arrays
+        sols, eng, _ = run_offline_arrays(topics, cfg, initial, sources=sources, final=True,
+                                          keep_history=args.smooth,
+                                          progress=lambda k: progress.update((t1 - t0) * k / max(n_fed, 1)))
     progress.update(t1 - t0)
     progress.done(f"{len(sols)} solutions")
     if not sols:

@@ -29,6 +29,7 @@ import yaml
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, quat_xyzw_to_C
 from hyper_nav_filter.conversions import stamp_to_s
+from hyper_nav_filter.replay_order import LATE_INPUTS_TOPIC
 
 from .core import run_check
 from .core.bag import deserialize, read_bag
@@ -56,12 +57,15 @@ def states_from_solutions(sols) -> dict:
 
 
 def errors(nav: dict, truth: dict) -> dict:
-    """Errors (estimate - truth) at the epochs both have (matched to 1 us)."""
+    """Errors (estimate - truth) at the epochs both have (matched to 1 us),
+    in time order whatever order the states came in (so every figure made
+    from them, sums included, is independent of the arrival order)."""
     key_t = {round(t * 1e6): i for i, t in enumerate(truth["t"])}
-    pairs = [(i, key_t[round(t * 1e6)]) for i, t in enumerate(nav["t"]) if round(t * 1e6) in key_t]
+    pairs = sorted((nav["t"][i], i, key_t[round(t * 1e6)]) for i, t in enumerate(nav["t"])
+                   if round(t * 1e6) in key_t)
     if not pairs:
         raise ValueError("no common epochs between solution and truth")
-    ni, ti = map(np.array, zip(*pairs))
+    _, ni, ti = map(np.array, zip(*pairs))
     pos = earth.position_error_enu_m(nav["lat"][ni], nav["lon"][ni], nav["alt"][ni],
                                      truth["lat"][ti], truth["lon"][ti], truth["alt"][ti])
     vel = nav["vel"][ni] - truth["vel"][ti]
@@ -121,7 +125,7 @@ def load_run(bag_path) -> dict:
     status (t, level, message, values), whether the bag was truncated, and
     ``run_graph.json`` (node exits) when it is there."""
     reader = read_bag(bag_path)
-    nav, truth, last_diag, by_node, timeline = [], [], {}, {}, {}
+    nav, truth, last_diag, by_node, timeline, late = [], [], {}, {}, {}, []
     for rec in reader:
         topic = rec.topic.lstrip("/")
         if topic == "nav/state":
@@ -131,16 +135,48 @@ def load_run(bag_path) -> dict:
         elif topic == "diagnostics":
             for st in deserialize(rec.raw, rec.msgtype).status:
                 values = {kv.key: kv.value for kv in st.values}
-                last_diag[st.name] = values
-                if st.hardware_id and not st.name.startswith(run_check.MONITOR_PREFIX):
+                if _newer(values, last_diag.get(st.name)):
+                    last_diag[st.name] = values
+                if st.hardware_id and not st.name.startswith(run_check.MONITOR_PREFIX) and \
+                        _newer(values, by_node.get(st.hardware_id)):
                     by_node[st.hardware_id] = values
                 t = float(values.get("sim_time_s") or rec.t_ns * 1e-9)
                 timeline.setdefault(st.name, []).append((t, run_check.level_of(st.level), st.message, values))
+        elif topic == LATE_INPUTS_TOPIC:
+            late.append(deserialize(rec.raw, rec.msgtype))
+    for events in timeline.values():
+        events.sort(key=lambda e: e[0])                   # stable: equal times keep their log order
     info = pathlib.Path(bag_path) / "run_graph.json"
     graph = json.loads(info.read_text()) if info.is_file() else {}
     return {"nav": nav, "truth": truth, "counts": dict(reader.counts), "diagnostics": last_diag,
             "by_node": by_node, "timeline": timeline, "truncated": reader.truncated, "error": reader.error,
-            "run_graph": graph}
+            "run_graph": graph, "late_inputs": late}
+
+
+def _newer(values: dict, old: dict | None) -> bool:
+    """Whether a status (its key/values) is a node's later word than ``old``:
+    by its ``heartbeat`` count (each node's own, increasing), so the last
+    diagnostics of a node do not depend on the order the recorder got them;
+    without heartbeats, the later in the log."""
+    if old is None:
+        return True
+    try:
+        return int(values["heartbeat"]) >= int(old["heartbeat"])
+    except (KeyError, ValueError):
+        return True
+
+
+def late_inputs_summary(late_msgs) -> dict:
+    """The fusion node's ``nav/late_inputs`` reports of a run, counted by
+    outcome and topic (inputs received behind the IMU; those applied after
+    their solution epoch was released are the ones the published solutions
+    before them did not see)."""
+    by_outcome, by_topic = {}, {}
+    for m in late_msgs:
+        by_outcome[m.outcome] = by_outcome.get(m.outcome, 0) + 1
+        t = m.topic.lstrip("/")
+        by_topic[t] = by_topic.get(t, 0) + 1
+    return {"count": len(late_msgs), "by_outcome": by_outcome, "by_topic": by_topic}
 
 
 def delivery_check(run: dict) -> dict:
@@ -290,6 +326,15 @@ def _report(argv) -> int:
     run_check.rejected_inputs(fusion, out)
     run_check.bridged_gaps(fusion, out)
     run_check.status_faults(run["timeline"], out, exits)
+    late = late_inputs_summary(run["late_inputs"])
+    out.details["late_inputs"] = late
+    if late["count"]:
+        print(f"late inputs at the fusion node (received behind the IMU, replayed where received): {late['count']} "
+              f"{late['by_outcome']}")
+    if late["by_outcome"].get("applied_after_release"):
+        out.warnings.append(f"late inputs: {late['by_outcome']['applied_after_release']} measurement(s) reached the "
+                            f"fusion node after their solution epoch was released; solutions published before "
+                            f"them did not use them (filter.config.output_delay_s is below that lateness)")
     ep = out.details["epochs"]
     print(f"epochs: {ep['scored']} of {ep['expected']} expected solution epochs (with truth) published")
     print(f"delivery: {len(rows)} topics checked: " + ", ".join(
@@ -322,7 +367,7 @@ def _replay(argv) -> int:
     sc = _scenario(args)
     reader = read_bag(args.bag)
     from .graph import fusion_inputs
-    inputs = fusion_inputs(sc) | {"truth/state"}
+    inputs = fusion_inputs(sc) | {"truth/state", LATE_INPUTS_TOPIC}   # the node's late inputs: its own order
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in reader if r.topic.lstrip("/") in inputs]
     out = run_check.Outcome()
     if not records:
@@ -350,6 +395,9 @@ def _replay(argv) -> int:
         print(format_table(sm, _limits(sc), _reference(sc)))
         print("filter vs smoother, RMS 3D: " + ", ".join(
             f"{k} {summary[k]['rms_3d']:.4g} -> {sm[k]['rms_3d']:.4g}" for k in ("pos_enu_m", "vel_enu_mps", "att_enu_deg")))
+    ro = eng.replay
+    print(f"replay order: stamp order, {ro.placed} input(s) the live node received behind the IMU fed where it "
+          f"received them" + (f"; {len(ro.missing)} reported late input(s) not in the bag" if ro.missing else ""))
     print(f"engine counters: {dict(eng.counters)}")
     _print_verdict(out, "replay_filter")
     return 0 if out.verdict == "PASS" else 1

@@ -18,6 +18,10 @@ solution outside the map, or a measured field that cannot be this map's
 * ``rejected_field_mismatch``: |F_map(r^) - m| beyond 10 sigma of what the
   map error, the sensor noise and the navigation covariance allow (a map of
   another epoch or place, a magnetometer fault)
+* ``rejected_map_epoch``: with an epoch check (``core.map_epoch``), the
+  secular change the map misses at the solution and the sample's stamp is
+  beyond ``map_epoch_tolerance_nT`` (the check at start passed: a stamp far
+  from stamp 0); within it, every result carries it (``map_epoch_bias_nT``)
 * ``no_fix_<code>`` (the matcher declined, e.g. ``no_fix_contour_off_area``:
   an ICCP contour point outside its matching area or the map)
 * ``fixes``.
@@ -34,11 +38,12 @@ from .geomag_config import GeomagConfig
 from .geomag_map import GeomagMap, MapError, OffMapError, get_or_build, load_map
 from .iccp import Iccp
 from .magcom import Magcom
+from .map_epoch import EpochOffset, bring_forward
 from .matching import MagSample, MatchResult, NavPoint
 from .siman import Siman
 
 MISMATCH_SIGMA = 10.0
-COUNTED_CODES = ("no_map", "off_map", "rejected_field_mismatch")
+COUNTED_CODES = ("no_map", "off_map", "rejected_field_mismatch", "rejected_map_epoch")
 
 
 def make_matcher(cfg: GeomagConfig, gmap: GeomagMap):
@@ -66,10 +71,16 @@ def load_configured_map(cfg: GeomagConfig, build_if_missing: bool = True, log=No
 
 
 class GeomagAiding:
-    def __init__(self, cfg: GeomagConfig, gmap: GeomagMap | None, map_problem: str = ""):
+    def __init__(self, cfg: GeomagConfig, gmap: GeomagMap | None, map_problem: str = "",
+                 epoch: EpochOffset | None = None):
+        """``epoch``: the map's epoch checked against the flight's date
+        (``map_epoch.check``; the map already brought forward when it says
+        so); None = no epoch check (unit tests of the matchers)."""
         self.cfg = cfg
         self.map = gmap
         self.map_problem = map_problem if gmap is None else ""
+        self.epoch = epoch
+        self.last_epoch_bias_nT = float("nan")
         self.matcher = make_matcher(cfg, gmap) if gmap is not None else None
         self.counters: Counter = Counter()
         self.compute_time_s = 0.0          # wall
@@ -77,13 +88,26 @@ class GeomagAiding:
         self.last: MatchResult | None = None
 
     @classmethod
-    def from_config(cls, cfg: GeomagConfig, build_if_missing: bool = True, log=None) -> "GeomagAiding":
-        """Load the map; a refused map leaves the engine running without
-        fixes (``map_problem`` holds the error message)."""
+    def from_config(cls, cfg: GeomagConfig, build_if_missing: bool = True, log=None,
+                    epoch: EpochOffset | None = None) -> "GeomagAiding":
+        """Load the map (brought to the flight's date when ``epoch`` says
+        so); a refused map leaves the engine running without fixes
+        (``map_problem`` holds the error message)."""
         try:
-            return cls(cfg, load_configured_map(cfg, build_if_missing, log))
+            gmap = load_configured_map(cfg, build_if_missing, log)
+            if epoch is not None and epoch.brought_forward:
+                gmap = bring_forward(gmap, epoch.measurement_epoch_decimal_year)
+            return cls(cfg, gmap, epoch=epoch)
         except MapError as exc:
-            return cls(cfg, None, str(exc))
+            return cls(cfg, None, str(exc), epoch=epoch)
+
+    def epoch_report(self) -> dict:
+        """The map-epoch figures for /diagnostics and table3.json: at start
+        over the map (``EpochOffset.summary``), and the last along the track."""
+        if self.epoch is None:
+            return {}
+        return {**self.epoch.summary(), "map_epoch_tolerance_nT": self.cfg.map_epoch_tolerance_nT,
+                "map_epoch_bias_track_nT": round(self.last_epoch_bias_nT, 4)}
 
     def process(self, sample: MagSample, nav: NavPoint) -> MatchResult | None:
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -93,6 +117,7 @@ class GeomagAiding:
         self.compute_cpu_s += time.thread_time() - c0
         if res is not None:
             res.compute_time_s = dt
+            res.map_epoch_bias_nT = self.last_epoch_bias_nT
             if res.valid:
                 self.counters["fixes"] += 1
             elif res.code not in COUNTED_CODES:                  # those are counted where they arise
@@ -115,8 +140,17 @@ class GeomagAiding:
         if not all(np.all(np.isfinite(v)) for v in (nav.lat_rad, nav.lon_rad, nav.alt_m, nav.vel_enu_mps)):
             self.counters["rejected_nav_nan"] += 1
             return None
+        if self.epoch is not None:                       # this sample's, also on a result without a map
+            self.last_epoch_bias_nT = self.epoch.bias_nT(nav.lat_rad, nav.lon_rad, sample.t_s)
         if self.map is None:
             return self._invalid(sample.t_s, f"no map: {self.map_problem}", "no_map")
+        if self.epoch is not None:
+            b = self.last_epoch_bias_nT
+            if abs(b) > self.cfg.map_epoch_tolerance_nT:
+                self.matcher.reset()
+                return self._invalid(sample.t_s, f"map epoch: {b:+.3g} nT of secular change at t = "
+                                     f"{sample.t_s:.1f} s, beyond geomag.map_epoch_tolerance_nT = "
+                                     f"{self.cfg.map_epoch_tolerance_nT:g} nT", "rejected_map_epoch")
         try:
             f, g = self.map.total_and_gradient(nav.lat_rad, nav.lon_rad, nav.alt_m)
         except OffMapError as exc:

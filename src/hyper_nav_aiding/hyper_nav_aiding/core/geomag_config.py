@@ -81,11 +81,20 @@ class GeomagConfig:
     isotropic_sigma_m: float = _f(100.0, "1-sigma of an isotropic fix (m), ours (the paper gives none)", 0.1, 1e6)
     max_nav_gap_s: float = _f(0.5, "largest gap between the nav/state samples that bracket a magnetometer "
                               "stamp (s)", 0.0, 100.0)
-    max_nav_prediction_s: float = _f(2.0, "a magnetometer sample newer than every nav/state is matched against "
-                                     "the newest one carried forward, if it is at most this old (s); else it "
-                                     "waits for its solution", 0.0, 100.0)
+    max_nav_prediction_s: float = _f(2.0, "a reference solution is carried forward to the magnetometer stamp "
+                                     "if it is at most this old (s)", 0.0, 100.0)
+    nav_reference_lag_s: float = _f(1.0, "a magnetometer sample at t is matched against the newest nav/state "
+                                    "stamped at or before t - lag, carried to t (core.nav_reference; chosen by "
+                                    "stamps, not by arrival); run_graph sets it to filter.config.output_delay_s; "
+                                    "0 = interpolate at t (waits for that solution)", 0.0, 100.0)
     map_file: str = _f("", "map file (.npz); empty: the cache (map_cache_dir) for the map spec")
     map_cache_dir: str = _f("", "map cache directory; empty: ~/.cache/hyper_nav/geomag")
+    map_epoch_tolerance_nT: float = _f(0.1, "largest |F at the flight's date - F of the map| over the map (nT) "
+                                       "that the map's epoch may imply (secular variation, core.map_epoch); "
+                                       "beyond it the map is refused; 0.1 nT = seed 003's smallest map-error level",
+                                       0.0, 1e6)
+    map_bring_forward: bool = _f(False, "bring the map from its epoch to the flight's date with the WMM's "
+                                 "secular-variation coefficients (core.map_epoch.bring_forward)")
     map: MapSpec = field(default_factory=MapSpec, metadata={"desc": "the map (model, epoch, altitude, grid)"})
     magcom: MagcomParams = field(default_factory=MagcomParams, metadata={"desc": "MAGCOM"})
     iccp: IccpParams = field(default_factory=IccpParams, metadata={"desc": "ICCP"})

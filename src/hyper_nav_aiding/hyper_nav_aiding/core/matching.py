@@ -60,6 +60,9 @@ class MatchResult:
     across_gradient_sigma_m: float = float("nan")
     gradient_nt_per_km: float = float("nan")
     compute_time_s: float = 0.0
+    # F at the measurement epoch - F of the map at the solution (nT; core.map_epoch eq. 2): the secular
+    # change the map does not hold; NaN when the engine has no epoch check
+    map_epoch_bias_nT: float = float("nan")
     code: str = ""              # short category for the counters ("off_map", "contour_off_area", ...)
 
 

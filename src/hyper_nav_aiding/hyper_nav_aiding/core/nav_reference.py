@@ -1,17 +1,26 @@
-"""The navigation solution to match a magnetometer sample against.
+"""The navigation solution to match a magnetometer sample against, chosen by
+stamps alone, so the live node and an offline run pick the same one whatever
+the order the two topics arrive in (issue 22).
 
-The node keeps the recent ``nav/state`` solutions (``NavPoint``, time
-ordered) and, for a sample stamped t, takes
+The node keeps the recent ``nav/state`` solutions (``NavPoint``; one
+publisher, so they arrive in stamp order). For a sample stamped t and a
+reference lag L (``nav_reference_lag_s``: the fusion node's
+``output_delay_s``, the age of its newest solution when the IMU reaches t):
 
-* the solution at t, interpolated between the two that bracket it (when the
-  fusion node is ahead, e.g. replaying), if they are at most
-  ``max_gap_s`` apart;
-* else the newest solution carried forward to t (``matching.predict_nav``)
-  if it is at most ``max_prediction_s`` old: the normal live case, since the
-  fusion node releases its solutions ``output_delay_s`` behind;
-* else nothing yet ("wait": the sample waits for its solution), or never
-  ("stale": older than every kept solution; "gap": bracketing solutions too
-  far apart).
+* the decision waits until the first solution stamped after t - L has
+  arrived (``next``): from then on no solution stamped at or before t - L
+  can come, so the choice below cannot change with the arrival order;
+* if ``next`` is stamped at or after t (L = 0: wait for the solution at t;
+  or a hole in the solution stream), the solution at t is interpolated
+  between the two that bracket it, if they are at most ``max_gap_s`` apart
+  ("gap" otherwise);
+* else the newest solution stamped at or before t - L is carried forward to
+  t (``matching.predict_nav``; the live case), if it is at most
+  ``max_prediction_s`` old ("stale" otherwise, and "gap" when it and
+  ``next`` are more than ``max_gap_s`` apart).
+
+"wait": the deciding solution has not come yet; "stale": the sample is older
+than every kept solution or its reference too old.
 """
 from __future__ import annotations
 
@@ -23,10 +32,11 @@ WAIT, STALE, GAP = "wait", "stale", "gap"
 
 
 class NavReference:
-    def __init__(self, max_gap_s: float, max_prediction_s: float, keep_s: float = 10.0):
+    def __init__(self, max_gap_s: float, max_prediction_s: float, lag_s: float = 1.0, keep_s: float = 10.0):
         self.max_gap_s = max_gap_s
         self.max_prediction_s = max_prediction_s
-        self.keep_s = keep_s
+        self.lag_s = lag_s
+        self.keep_s = max(keep_s, 2.0 * lag_s + max_prediction_s)
         self._t: list[float] = []
         self._nav: list[NavPoint] = []
 
@@ -43,20 +53,27 @@ class NavReference:
 
     def at(self, t_s: float) -> tuple[NavPoint | None, str]:
         """(solution for t_s, "") or (None, WAIT | STALE | GAP)."""
-        if not self._t:
+        eps = 1e-9
+        j = bisect.bisect_right(self._t, t_s - self.lag_s + eps)       # first solution after t - L
+        if j == len(self._t):
             return None, WAIT
-        i = bisect.bisect_left(self._t, t_s - 1e-9)
-        if i < len(self._t):
-            b = self._nav[i]
-            if abs(b.t_s - t_s) <= 1e-9:
+        nxt = self._nav[j]
+        if nxt.t_s >= t_s - eps:                                       # bracketed (or exact)
+            k = bisect.bisect_left(self._t, t_s - eps)
+            b = self._nav[k]
+            if abs(b.t_s - t_s) <= eps:
                 return b, ""
-            if i == 0:
+            if k == 0:
                 return None, STALE
-            a = self._nav[i - 1]
+            a = self._nav[k - 1]
             if b.t_s - a.t_s > self.max_gap_s:
                 return None, GAP
             return interpolate_nav(a, b, t_s), ""
-        newest = self._nav[-1]
-        if t_s - newest.t_s <= self.max_prediction_s:
-            return predict_nav(newest, t_s), ""
-        return None, WAIT
+        if j == 0:
+            return None, STALE
+        ref = self._nav[j - 1]
+        if nxt.t_s - ref.t_s > self.max_gap_s:
+            return None, GAP
+        if t_s - ref.t_s > self.max_prediction_s:
+            return None, STALE
+        return predict_nav(ref, t_s), ""

@@ -21,11 +21,14 @@ smoothed by an alpha-beta tracker of bias and drift
 drift through the outage.
 
 Receiver epochs are queued (:meth:`VirtualGnss.add_raw`) and processed in
-epoch order by :meth:`VirtualGnss.ready`: at once with the alpha-beta
-source; with the fused source once the IMU has reached the epoch (the
-fused state is carried to it with the IMU) and a fused state later than
-the one it uses has arrived; so the result does not depend on the arrival
-order of the topics (live node = offline run).
+epoch order by :meth:`VirtualGnss.ready`, once the IMU is ``input_hold_s``
+past the epoch (with an IMU stream; without one, at once) and, with the
+fused source, a fused state later than the one it uses has arrived. What an
+epoch uses is chosen by stamps: the newest fused state stamped at least
+``fused_state_delay_s`` before it, the fixes stamped before it, the
+broadcast records received (stamped) by it; so, for inputs up to
+``input_hold_s`` late, the result does not depend on the arrival order of
+the topics (live node = offline run, issue 22).
 
 Per receiver epoch: a satellite is *lost* when
 it was locked at an earlier epoch and is not locked now; for the lost
@@ -88,8 +91,9 @@ class VirtualGnss:
         self.last_error = msg
         return msg
 
-    def add_ephemeris(self, eph) -> str | None:
-        """Store a broadcast record; the reason if rejected (malformed or expired)."""
+    def add_ephemeris(self, eph, received_s: float = -np.inf) -> str | None:
+        """Store a broadcast record received at ``received_s`` (its message's
+        stamp); the reason if rejected (malformed or expired)."""
         try:
             if self._t_rx_last is not None:
                 age = abs(float(system_time_s(eph.system, self._t_rx_last)) - eph.toe_s)
@@ -98,7 +102,7 @@ class VirtualGnss:
                     return self.reject("rejected_ephemeris_expired",
                                         f"gnss ephemeris {eph.sat_id}: toe is {age:.0f} s from the latest receiver "
                                         f"epoch (valid +-{limit:.0f} s): expired")
-            self.store.add(eph)
+            self.store.add(eph, received_s)
         except (MalformedGnssInput, ValueError, TypeError, AttributeError) as exc:
             return self.reject("rejected_ephemeris_malformed", str(exc))
         self.counters["ephemerides_stored"] += 1
@@ -146,7 +150,7 @@ class VirtualGnss:
         """Clock measurement of a real epoch: median over its locked channels of
         corrected pseudorange - range to the source's position."""
         idx = [k for k, ok in enumerate(raw.locked) if ok and raw.system[k] in ("G", "C")]
-        ephs = [self.store.select(raw.system[k], int(raw.prn[k]), raw.t_rx_gpst_s) for k in idx]
+        ephs = [self.store.select(raw.system[k], int(raw.prn[k]), raw.t_rx_gpst_s, raw.t_s) for k in idx]
         sel = [(k, e) for k, e in zip(idx, ephs) if e is not None]
         if not sel:
             return
@@ -186,6 +190,9 @@ class VirtualGnss:
         out = []
         while self._queue:
             raw = self._queue[0]
+            t_imu = self.fused.imu_t_s
+            if t_imu is not None and t_imu < raw.t_s + self.cfg.input_hold_s - 1e-9:
+                break                                 # inputs stamped by the epoch may still come
             if self.cfg.position_source == "fused":
                 # the IMU must reach the epoch, and a state newer than the one to use must have
                 # arrived (states come in order: the one used is then final), unless the IMU is
@@ -226,7 +233,7 @@ class VirtualGnss:
             return None
         ephs = []
         for s, p in lost:
-            eph = self.store.select(s, p, raw.t_rx_gpst_s)
+            eph = self.store.select(s, p, raw.t_rx_gpst_s, raw.t_s)
             if eph is None:
                 self.reject("virtual_channels_no_valid_ephemeris",
                              f"{s}{p:02d}: no stored ephemeris valid at the epoch (expired or never received)")

@@ -13,6 +13,8 @@ one typed object validated at start; errors name the field.
       max_extrapolation_s: 600.0      # alpha_beta: nothing beyond this after the last fix
       max_state_age_s: 5.0            # fused: nav/state this old and no IMU to carry it -> nothing
       fused_state_delay_s: 1.1        # fused: use nav/state stamped <= t - this (filter output delay + 0.1 s)
+      input_hold_s: 0.3               # an epoch is processed once the IMU is this far past it (inputs up to
+                                      # this late are in: the output does not depend on their arrival order)
       alpha_beta_accel_sigma_mps2: 5.0
       alpha_beta_fix_sigma_m: 5.0
       clock_drift_rate_sigma_mps2: 0.2  # receiver clock tracker (TCXO: sqrt(2 pi^2 h-2) c = 0.19 m/s/sqrt(s))
@@ -44,6 +46,7 @@ class VirtualGnssConfig:
     max_extrapolation_s: float = 600.0
     max_state_age_s: float = 5.0
     fused_state_delay_s: float = 1.1
+    input_hold_s: float = 0.3
     alpha_beta_accel_sigma_mps2: float = 5.0
     alpha_beta_fix_sigma_m: float = 5.0
     clock_drift_rate_sigma_mps2: float = 0.2
@@ -71,6 +74,7 @@ class VirtualGnssConfig:
             g["pseudorange_sigma_m"] = _num(prefix, "pseudorange_sigma_m", g["pseudorange_sigma_m"], positive=True)
         g["elevation_mask_deg"] = _num(prefix, "elevation_mask_deg", g["elevation_mask_deg"], lo=-10.0, hi=60.0)
         g["fused_state_delay_s"] = _num(prefix, "fused_state_delay_s", g["fused_state_delay_s"], lo=0.0, hi=60.0)
+        g["input_hold_s"] = _num(prefix, "input_hold_s", g["input_hold_s"], lo=0.0, hi=10.0)
         for k in ("pseudorange_rate_sigma_mps", "max_extrapolation_s", "max_state_age_s",
                   "alpha_beta_accel_sigma_mps2", "alpha_beta_fix_sigma_m", "clock_drift_rate_sigma_mps2",
                   "clock_sigma_m"):

@@ -9,11 +9,12 @@ per match attempt, valid or not), and ``/diagnostics``. All math is in
 ``hyper_nav_aiding.core`` (``GeomagAiding``, the same engine the offline
 reproduction runs).
 
-Each magnetometer sample is paired with a solution for its stamp
-(``core.nav_reference``: interpolated when nav/state is ahead, else the
-newest one carried forward, since the fusion node releases its solutions
-``output_delay_s`` behind: the fix then reaches the filter before it
-releases that epoch) and queued to a worker thread, which matches and
+Each magnetometer sample is paired with a solution for its stamp, chosen by
+stamps alone (``core.nav_reference``: the newest solution stamped at least
+``nav_reference_lag_s`` before it, carried forward; the lag is the fusion
+node's ``output_delay_s``, so the fix reaches the filter before it releases
+that epoch, and the pairing does not depend on which topic arrived first)
+and queued to a worker thread, which matches and
 publishes: MAGCOM's search (~0.1 s) or a map build (tens of seconds at
 first start) never blocks the callbacks. The map is loaded (or built into
 the cache) on that thread too.
@@ -23,7 +24,14 @@ written from the scenario's ``geomag:`` block by ``run_graph``),
 ``frame_id``, ``qos.depth``, ``min_subscribers`` (subscribe to the inputs
 only when ``geomag/fix`` has that many subscribers), ``max_queue`` (samples
 waiting for the worker; beyond, the oldest is dropped and counted),
-``diagnostics_period_s``, ``map.build_if_missing``.
+``diagnostics_period_s``, ``map.build_if_missing``, and
+``magnetometer.epoch_decimal_year``: the flight's date at stamp 0 (written by
+``run_graph`` from the scenario), against which the map's epoch is checked at
+start (``core.map_epoch``, issue 27): beyond ``geomag.map_epoch_tolerance_nT``
+the node logs the error (both fields, the implied nT) and exits 2; within it
+the implied bias is on ``/diagnostics`` (over the map at start, and along the
+track) and in every ``geomag/quality`` (``map_epoch_bias_nt``, at the
+solution and the sample's stamp). Without the date the node refuses to start.
 """
 from __future__ import annotations
 
@@ -45,6 +53,7 @@ from hyper_nav_filter.ros_util import (all_matched, assign_fields, diagnostic_ar
 from .. import geomag_conversions as conv
 from ..core.geomag_aiding import GeomagAiding
 from ..core.geomag_config import GeomagConfig
+from ..core.map_epoch import MEASUREMENT_EPOCH_FIELD, check as check_map_epoch
 from ..core.nav_reference import WAIT, NavReference
 
 
@@ -76,6 +85,16 @@ class GeomagNode(Node):
             d = _descriptor(name, default, desc, lo, hi, choices)
             values[name] = self.declare_parameter(name, default, d).value
         self.cfg = GeomagConfig.from_flat(values)          # raises naming the field
+        flight_epoch = self.declare_parameter(MEASUREMENT_EPOCH_FIELD, float("nan"), ParameterDescriptor(
+            name=MEASUREMENT_EPOCH_FIELD, type=ParameterType.PARAMETER_DOUBLE, dynamic_typing=True,
+            description="the flight's date (decimal year) at stamp 0, from the scenario: the map's epoch "
+                        "is checked against it")).value
+        try:
+            self.epoch = check_map_epoch(self.cfg, flight_epoch)
+        except ValueError as exc:                          # MapEpochError, WmmDateError: name the fields
+            self.get_logger().fatal(f"geomagnetic map refused at start: {exc}")
+            raise SystemExit(2) from None
+        self.get_logger().info(f"map epoch: {self.epoch.describe()}")
         p = {name: self.declare_parameter(name, default, ParameterDescriptor(description=desc)).value
              for name, default, desc in [
                  ("frame_id", "enu", "frame_id of geomag/fix and geomag/quality"),
@@ -94,7 +113,7 @@ class GeomagNode(Node):
         self.counts = collections.Counter()
         self._lock = threading.Lock()
         self._mag = collections.deque()             # MagSample waiting for its nav/state
-        self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s)
+        self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s, self.cfg.nav_reference_lag_s)
         self._last_mag_t = -np.inf
         self._jobs: queue.Queue = queue.Queue()
         self._stop = threading.Event()
@@ -116,14 +135,15 @@ class GeomagNode(Node):
 
     def _load_map(self):
         log = self.get_logger()
-        aiding = GeomagAiding.from_config(self.cfg, self.p["map.build_if_missing"], log=log.info)
+        aiding = GeomagAiding.from_config(self.cfg, self.p["map.build_if_missing"], log=log.info, epoch=self.epoch)
         if aiding.map is None:
             log.error(f"geomagnetic map refused, no fixes: {aiding.map_problem}")
         else:
             s = aiding.map.spec
             log.info(f"map {s.model} epoch {s.epoch_decimal_year} at {s.alt_m:.0f} m, "
                      f"{s.lat_min_deg}-{s.lat_max_deg} N {s.lon_min_deg}-{s.lon_max_deg} E, "
-                     f"step {s.grid_step_deg} deg / {s.refine_factor}")
+                     f"step {s.grid_step_deg} deg / {s.refine_factor}"
+                     + (" (brought forward)" if self.epoch.brought_forward else ""))
         self.aiding = aiding
 
     # ---- callbacks (short: validate, pair, queue) ---------------------------------------
@@ -213,11 +233,13 @@ class GeomagNode(Node):
         c = dict(self.counts)
         c["algorithm"] = self.cfg.algorithm
         c["queue"] = self._jobs.qsize()
+        c.update(self.epoch.summary())
         a = self.aiding
         if a is None:
             c["map"] = "loading"
         else:
             c.update(a.counters)
+            c.update(a.epoch_report())
             c["map"] = "ok" if a.map is not None else f"refused: {a.map_problem}"
             c["compute_time_s"] = f"{a.compute_time_s:.3f}"
         bad = sum(v for k, v in c.items() if str(k).startswith(("rejected_", "dropped_", "no_map", "off_map",

@@ -91,10 +91,12 @@ class LeverArmLearningNode(Node):
             self.counts["rejected_imu_out_of_order"] += 1
             return
         self.counts["imu"] += 1
+        window = None
         if self._imu_t is not None:
             dt = t - self._imu_t
-            self.monitor.add_imu(t, w * dt, f * dt)
+            window = self.monitor.add_imu(t, w * dt, f * dt, busy=self.worker.busy)
         self._imu_t = t
+        self._submit(window)
 
     def _on_fix(self, msg):
         m = conversions.gnss_position(msg)
@@ -102,7 +104,7 @@ class LeverArmLearningNode(Node):
             self.counts["rejected_gnss_nan"] += 1
             return
         self.counts["gnss_fix"] += 1
-        self.monitor.add_gnss(m)
+        self._submit(self.monitor.add_gnss(m, busy=self.worker.busy))
 
     def _on_vel(self, msg):
         m = conversions.gnss_velocity(msg)
@@ -110,7 +112,7 @@ class LeverArmLearningNode(Node):
             self.counts["rejected_gnss_nan"] += 1
             return
         self.counts["gnss_vel"] += 1
-        self.monitor.add_gnss(m)
+        self._submit(self.monitor.add_gnss(m, busy=self.worker.busy))
 
     def _on_state(self, msg):
         try:
@@ -119,15 +121,19 @@ class LeverArmLearningNode(Node):
             self.counts[f"rejected_nav_state_{'layout' if str(exc) in ('layout', 'covariance') else 'nan'}"] += 1
             return
         self.counts["nav_state"] += 1
-        window = self.monitor.add_state(state, P, busy=self.worker.busy)
+        self._submit(self.monitor.add_state(state, P, busy=self.worker.busy))
+
+    def _submit(self, window):
+        """Start a re-estimation of the window the trigger cut (None: nothing to do)."""
         if window is None:
             return
+        t_trigger = window.t_end_s
         self.worker.submit((window, self.filter_cfg, self.freqs_radps.copy(), self.p.reestimation),
                            self.p.reestimation.timeout_s)
-        self._job = {"t_trigger": state.t_s, "window": (window.t0_s, window.t_end_s)}
-        self._last_trigger_t = state.t_s
+        self._job = {"t_trigger": t_trigger, "window": (window.t0_s, window.t_end_s)}
+        self._last_trigger_t = t_trigger
         self.counts["jobs_started"] += 1
-        self.get_logger().info(f"re-estimation started at t={state.t_s:.2f} s on the window "
+        self.get_logger().info(f"re-estimation started at t={t_trigger:.2f} s on the window "
                                f"[{window.t0_s:.2f}, {window.t_end_s:.2f}] s ({self.p.reestimation.method})")
 
     def _poll_worker(self):

@@ -1,7 +1,12 @@
-"""Which solution a magnetometer sample is matched against: interpolated when
-bracketed, the newest carried forward (second order) when the fusion node is
-behind, else wait / stale / gap; and the NavState conversion's acceleration
-carries the seed 003 truth through its 4 g turn to within a metre."""
+"""Which solution a magnetometer sample is matched against, by stamps alone:
+the newest solution stamped at least the lag before the sample, carried
+forward (second order), decided once the first solution after that point
+has come; interpolation when the lag is 0; wait / stale / gap; the choice
+is the same whatever order the two streams arrive in (issue 22); and the
+NavState conversion's acceleration carries the seed 003 truth through its
+4 g turn to within a metre."""
+import random
+
 import numpy as np
 import pytest
 
@@ -16,22 +21,68 @@ def nav(t, n_m=0.0, v_n=2000.0, a_n=0.0):
                     np.array([0.0, a_n, 0.0]))
 
 
-def test_interpolate_predict_wait_stale_gap():
-    ref = NavReference(max_gap_s=0.5, max_prediction_s=2.0)
-    assert ref.at(1.0) == (None, WAIT)
-    for k in range(5):                                   # 50 Hz from t = 1.00 to 1.08
-        assert ref.add(nav(1.0 + 0.02 * k, 40.0 * k))
-    assert not ref.add(nav(1.04, 0.0))                   # not newer: refused
+FR = LocalFrame(np.deg2rad(44.0), np.deg2rad(110.0), 26000.0)
+
+
+def north(p):
+    return FR.to_en(p.lat_rad, p.lon_rad)[1]
+
+
+def test_reference_by_stamp_wait_stale_gap():
+    ref = NavReference(max_gap_s=0.5, max_prediction_s=2.0, lag_s=1.0)
+    assert ref.at(2.0) == (None, WAIT)
+    for k in range(51):                                  # 50 Hz from t = 0.00 to 1.00, 2000 m/s north
+        assert ref.add(nav(0.02 * k, 40.0 * k))
+    assert not ref.add(nav(0.5, 0.0))                    # not newer: refused
+    assert ref.at(2.0) == (None, WAIT)                   # the first solution after 1.0 s has not come
+    p, why = ref.at(1.5)                                 # reference 0.5 s (newest <= 0.5), carried 1 s
+    assert why == "" and north(p) == pytest.approx(1000.0 + 2000.0, abs=0.01)
+    ref.add(nav(1.02, 2040.0))
+    p, why = ref.at(2.0)                                 # now decided: the solution at 1.0 s, carried 1 s
+    assert why == "" and north(p) == pytest.approx(2000.0 + 2000.0, abs=0.01)
+    assert ref.at(-0.5) == (None, STALE)                 # before every kept solution
+    ref.add(nav(3.0, 6000.0))
+    assert ref.at(3.2) == (None, GAP)                    # reference 1.02 s and the next 1.98 s apart
+
+
+def test_lag_zero_interpolates_between_the_bracketing_solutions():
+    ref = NavReference(max_gap_s=0.5, max_prediction_s=2.0, lag_s=0.0)
+    for k in range(5):
+        ref.add(nav(1.0 + 0.02 * k, 40.0 * k))
     n, why = ref.at(1.03)
-    assert why == "" and n.t_s == 1.03
-    fr = LocalFrame(np.deg2rad(44.0), np.deg2rad(110.0), 26000.0)
-    assert fr.to_en(n.lat_rad, n.lon_rad)[1] == pytest.approx(60.0, abs=1e-6)
-    p, why = ref.at(2.08)                               # 1 s ahead of the newest: carried forward
-    assert why == "" and fr.to_en(p.lat_rad, p.lon_rad)[1] == pytest.approx(160.0 + 2000.0, abs=0.01)
-    assert ref.at(3.5) == (None, WAIT)                   # too far ahead: wait for its solution
-    assert ref.at(0.5) == (None, STALE)
-    ref.add(nav(3.0, 4000.0))
-    assert ref.at(2.0) == (None, GAP)                    # bracketing solutions 1.92 s apart
+    assert why == "" and n.t_s == 1.03 and north(n) == pytest.approx(60.0, abs=1e-6)
+    assert ref.at(1.2) == (None, WAIT)
+
+
+def test_the_choice_does_not_depend_on_arrival_order():
+    """Magnetometer samples and solutions interleaved in random orders (each
+    stream in its own order, as one publisher sends it): every sample gets
+    the same reference."""
+    navs = [nav(0.02 * k, 40.0 * k + 3.0 * np.sin(k)) for k in range(400)]
+    mags = [0.1 * k + 0.013 for k in range(70)]
+    results = []
+    for seed in range(6):
+        rng = random.Random(seed)
+        ref = NavReference(max_gap_s=0.5, max_prediction_s=2.0, lag_s=1.0)
+        events = [("nav", n.t_s + rng.uniform(0, 1.5), n) for n in navs] + \
+                 [("mag", t + rng.uniform(0, 1.5), t) for t in mags]
+        # keep each stream in order (a single publisher): sort, then restore per-stream order
+        events.sort(key=lambda e: e[1])
+        nq, mq = iter(navs), iter(mags)
+        waiting, got = [], {}
+        for kind, _, _ in events:
+            if kind == "nav":
+                ref.add(next(nq))
+            else:
+                waiting.append(next(mq))
+            while waiting:
+                p, why = ref.at(waiting[0])
+                if why == WAIT:
+                    break
+                got[waiting.pop(0)] = (why, None if p is None else (p.lat_rad, p.lon_rad))
+        results.append(got)
+    assert all(r == results[0] for r in results[1:])
+    assert sum(1 for why, _ in results[0].values() if why == "") >= 55
 
 
 def test_prediction_is_second_order():

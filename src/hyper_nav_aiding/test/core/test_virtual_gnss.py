@@ -162,7 +162,7 @@ def test_virtual_ranges_from_the_fused_state_carry_no_information_about_the_vehi
     eng = FusionEngine(cfg, sc.filter_initial_state())
     p = _params(fl)
     real = TightGnssInput(p.corrections, True, 0.5)           # the gnss_raw source's input
-    vg = _core(fl, add_noise=False)
+    vg = _core(fl, add_noise=False, input_hold_s=0.0)         # each virtual epoch at its own IMU epoch
     for eph in fl.epochs_loss[0].ephemeris_set:
         real.add_ephemeris(eph)
         vg.add_ephemeris(eph)

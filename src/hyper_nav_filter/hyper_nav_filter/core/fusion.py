@@ -157,6 +157,13 @@ class FusionEngine:
     def t_latest_s(self) -> float:
         return self._times[-1] if self._times else self._base.t_s
 
+    @property
+    def last_released_t_s(self) -> float:
+        """Epoch of the newest solution released so far (-inf before the first):
+        an event at or before it is applied, but the solutions already
+        released did not see it."""
+        return self._last_released_t
+
     # ---- inputs -------------------------------------------------------------------
     def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps) -> tuple[bool, str]:
         """Add an IMU sample stamped at the end of its interval. Returns

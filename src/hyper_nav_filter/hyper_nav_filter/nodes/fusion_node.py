@@ -21,6 +21,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
+from hyper_nav_msgs.msg import LateInput
 from hyper_nav_msgs.msg import NavState as NavStateMsg
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
@@ -33,6 +34,7 @@ from ..core.fast.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
+from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
 from ..ros_util import (all_matched, assign_fields, declare_params, diagnostic_array, latched_qos, publisher_qos,
@@ -105,7 +107,11 @@ class FusionNode(Node):
             self.pub_tf = self.create_publisher(TFMessage, "/tf", qos)
             self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", latched_qos(10))
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
+        # inputs received behind the IMU (replay_order): transient local, so a late-joining recorder gets them
+        self.pub_late = self.create_publisher(LateInput, LATE_INPUTS_TOPIC, latched_qos(p["qos.depth"]))
+        self.late = LateInputTracker()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
+        self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
         if self.pub_tf is not None:
             self.counts.update({"published tf": 0, "published tf_static": 0})
         self._subs = []
@@ -151,20 +157,38 @@ class FusionNode(Node):
         for src, inp in sorted(pairs, key=lambda si: not si[1].latched):
             qos = latched_qos(max(depth, 500)) if inp.latched else \
                 subscriber_qos(src.spec.qos == "reliable", depth)
-            cb = (lambda msg, s=src, r=inp.role: self._on_message(s, r, msg))
+            name = self.resolve_topic_name(inp.topic)         # after remapping: the topic the bag records
+            cb = (lambda msg, s=src, r=inp.role, t=name: self._on_message(s, r, msg, t))
             self._subs.append(self.create_subscription(message_class(inp.msg_type), inp.topic, cb, qos))
         self.get_logger().info("outputs matched; sources: " + ", ".join(
             f"{s.id} ({s.spec.type}) <- {', '.join(i.topic for i in s.inputs())}" for s in self.router.sources))
 
-    def _on_message(self, src, role, msg):
+    def _on_message(self, src, role, msg, topic):
         if src.drives_time:
             self._last_imu_wall = time.monotonic()
+        t_ns = stamp_ns(msg)
+        report, after_release = self.late.arrival(topic, t_ns, src.drives_time, self.engine.last_released_t_s)
         reason, sols = self.router.handle(src, role, msg)
         if reason is None and not src.drives_time:
             self._last_msg_t[src.id] = self.engine.t_latest_s
         elif reason is not None:
             self.get_logger().warning(f"{src.id}: rejected {role} message: {reason}", throttle_duration_sec=5.0)
+        if src.drives_time and reason is None:
+            self.late.imu_accepted(t_ns)
+        if report is not None:
+            self._publish_late(msg, report, reason or ("applied_after_release" if after_release else "applied"))
         self._publish(sols)
+
+    def _publish_late(self, msg, report, outcome):
+        """Report an input received behind the IMU (``nav/late_inputs``), so a
+        replay can feed it where the node received it (``replay_order``)."""
+        m = LateInput()
+        m.header.stamp = msg.header.stamp
+        m.header.frame_id = getattr(msg.header, "frame_id", "")
+        m.topic, m.occurrence, m.outcome = "/" + report.topic, report.occurrence, outcome
+        m.after_imu_stamp.sec, m.after_imu_stamp.nanosec = divmod(report.after_imu_ns, 1_000_000_000)
+        self.pub_late.publish(m)
+        self.counts[f"published {LATE_INPUTS_TOPIC}"] += 1
 
     def _publish(self, solutions):
         for sol in solutions:

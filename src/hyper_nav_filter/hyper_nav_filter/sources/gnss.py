@@ -92,7 +92,7 @@ class GnssRawSource(SourceType):
     def convert(self, role, msg, engine):
         try:
             if role == "ephemeris":
-                self.tight.add_ephemeris(conversions.gnss_ephemeris(msg))
+                self.tight.add_ephemeris(conversions.gnss_ephemeris(msg), conversions.stamp_to_s(msg.header.stamp))
             else:
                 raw = conversions.gnss_raw(msg)
                 raw = self._select(raw, getattr(msg, "is_virtual", ()))

@@ -156,8 +156,9 @@ def test_malformed_raw_epoch_raises_a_clear_error(sky):
         store.add(replace(ephs[0], e=1.5))
 
 
-def _eph_msg(e):
-    return SimpleNamespace(system=1 if e.system == "G" else 3, prn=e.prn, week=e.week, toe_s=e.toe, toc_s=e.toc,
+def _eph_msg(e, stamp_s: int = 0):
+    return SimpleNamespace(header=SimpleNamespace(stamp=SimpleNamespace(sec=stamp_s, nanosec=0)),
+                           system=1 if e.system == "G" else 3, prn=e.prn, week=e.week, toe_s=e.toe, toc_s=e.toc,
                            sqrt_a_sqrtm=e.sqrtA, e=e.e, i0_rad=e.i0, omega0_rad=e.Omega0, omega_rad=e.omega,
                            m0_rad=e.M0, delta_n_radps=e.delta_n, idot_radps=e.idot, omega_dot_radps=e.OmegaDot,
                            cuc_rad=e.cuc, cus_rad=e.cus, crc_m=e.crc, crs_m=e.crs, cic_rad=e.cic, cis_rad=e.cis,
@@ -282,3 +283,27 @@ def test_scenario_gnss_raw_source_is_validated(tmp_path):
     p = sc.filter_sources()["gnss_raw"]
     assert p["ionosphere"] == "klobuchar" and p["klobuchar_alpha"] == list(KLOBUCHAR_ALPHA_DEFAULT)
     assert p["use_rates"] is True
+
+
+def test_a_record_is_usable_from_its_reception_on(sky):
+    """The store chooses among the records received (stamped) by the epoch
+    (issue 22): a record that came after an epoch is not used for it,
+    whatever order the messages arrived in; the tight input holds the epoch."""
+    ephs, obs = sky
+    g = ephs[0]
+    store = EphemerisStore()
+    store.add(g, received_s=10.5)
+    assert store.select(g.system, g.prn, T0, received_by_s=10.0) is None
+    assert store.select(g.system, g.prn, T0, received_by_s=10.5) is g
+    assert store.select(g.system, g.prn, T0) is g                    # no epoch given: any record
+    store.add(g, received_s=9.0)                                     # the same record again, earlier
+    assert store.select(g.system, g.prn, T0, received_by_s=10.0) is g
+    # through the tight input: a raw epoch at 10 s and every record received at 10.2 s
+    tight = TightGnssInput(hold_s=0.5)
+    for e in ephs:
+        tight.add_ephemeris(e, received_s=10.2)
+    raw = _raw(ephs, obs)
+    tight.add_raw(raw)
+    assert tight.ready(10.3) == []                                   # incomplete: held
+    assert tight.ready(10.5) == [raw]                                # hold expired
+    assert tight.measurement(raw) is None                            # nothing received by 10 s

@@ -5,7 +5,7 @@ messages live, rosbags messages from a bag). No rclpy, no foxglove here.
   (``gnss/fix``) as (t, lat_deg, lon_deg, alt_m, ENU covariance);
 * transforms: ``/tf`` and ``/tf_static`` entries as plain dicts;
 * errors: at every ``nav/state`` epoch that has a ``truth/state`` of the same
-  stamp, the estimate-minus-truth errors of position (ENU m), velocity (ENU
+  stamp (whichever arrives first), the estimate-minus-truth errors of position (ENU m), velocity (ENU
   m/s) and attitude (ENU deg) with the filter's own 1-sigma from the
   covariance (the numbers of ``errors.png``, live).
 """
@@ -75,20 +75,40 @@ def _sigmas(m) -> dict:
 
 
 class ErrorTracker:
-    """Matches solutions to truth by stamp and returns the error record."""
+    """Pairs solutions with truth by stamp, whichever arrives first: each side
+    waits (up to ``keep`` epochs) for the other, so every solution with a
+    truth of the same stamp gets its error record, whatever the arrival
+    order. ``on_truth`` and ``on_nav`` return the records completed by that
+    message as (stamp in ns, record) pairs (usually zero or one)."""
 
-    def __init__(self):
+    def __init__(self, keep: int = _KEEP):
+        self.keep = keep
         self._truth: OrderedDict[int, object] = OrderedDict()
+        self._nav: OrderedDict[int, object] = OrderedDict()   # solutions waiting for their truth
+        self.unmatched = 0                                     # solutions dropped unpaired (memory bound)
 
-    def on_truth(self, m) -> None:
-        self._truth[stamp_ns(m.header.stamp)] = m
-        while len(self._truth) > _KEEP:
+    def on_truth(self, m) -> list[dict]:
+        key = stamp_ns(m.header.stamp)
+        self._truth[key] = m
+        while len(self._truth) > self.keep:
             self._truth.popitem(last=False)
+        nav = self._nav.pop(key, None)
+        return [] if nav is None else [(key, self.record(nav, m))]
 
-    def on_nav(self, m) -> dict | None:
-        tr = self._truth.get(stamp_ns(m.header.stamp))
-        if tr is None:
-            return None
+    def on_nav(self, m) -> list[dict]:
+        key = stamp_ns(m.header.stamp)
+        tr = self._truth.get(key)
+        if tr is not None:
+            return [(key, self.record(m, tr))]
+        self._nav[key] = m
+        while len(self._nav) > self.keep:
+            self._nav.popitem(last=False)
+            self.unmatched += 1
+        return []
+
+    @staticmethod
+    def record(m, tr) -> dict:
+        """The error record of a solution ``m`` against the truth ``tr`` of its stamp."""
         pos = earth.position_error_enu_m(m.lat_rad, tr.lon_rad + earth.wrap_lon_rad(m.lon_rad - tr.lon_rad), m.alt_m,
                                          tr.lat_rad, tr.lon_rad, tr.alt_m)
         vel = np.asarray(m.vel_enu_mps, float) - np.asarray(tr.vel_enu_mps, float)

@@ -126,6 +126,9 @@ OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources",   # fi
 AIDING_BLOCKS = {"virtual_gnss": ("hyper_nav_aiding.core.virtual_gnss_config", "VirtualGnssConfig.from_config"),
                  "geomag": ("hyper_nav_aiding.core.geomag_config", "GeomagConfig.from_dict"),
                  "lever_arm_learning": ("hyper_nav_aiding.core.lever_arm.config", "LeverArmLearningConfig.from_block")}
+# an aiding block against the rest of the scenario (called with the whole data): the geomagnetic
+# map's epoch against magnetometer.epoch_decimal_year (issue 27)
+AIDING_SCENARIO_CHECKS = {"geomag": ("hyper_nav_aiding.core.map_epoch", "check_scenario")}
 
 
 def known_fields() -> dict[str, frozenset]:
@@ -296,14 +299,17 @@ class Scenario:
                 self._traj = Trajectory(self.start(), self.maneuvers(), self["duration_s"])
         return self._traj
 
-    def filter_initial_state(self):
-        """The filter's initial nominal state: truth at t = 0 plus the
-        scenario's initial errors (what an alignment would hand over), with
-        the fields of an optional ``filter.initial_state`` block over it
-        (``hyper_nav_filter.core.initial_state``: any of position, velocity,
-        attitude, initial bias and scale-factor values)."""
+    def filter_initial_values(self) -> dict:
+        """The filter's initial state as the fusion node's ``init.*``
+        parameter values (degrees, quaternion, declared units;
+        ``hyper_nav_filter.core.initial_state.state_values``): truth at t = 0
+        plus the scenario's initial errors (what an alignment would hand
+        over), with the fields of an optional ``filter.initial_state`` block
+        over it (any of position, velocity, attitude, initial bias and
+        scale-factor values)."""
         from hyper_nav_filter.core import earth
         from hyper_nav_filter.core.attitude import rotvec_to_C
+        from hyper_nav_filter.core.initial_state import state_values
         from hyper_nav_filter.core.nav_state import NavState
         tr = self.trajectory().truth([0.0])
         d_pos = np.asarray(self["filter.initial_error.pos_enu_m"], float)
@@ -314,7 +320,16 @@ class Scenario:
         C = rotvec_to_C(-phi) @ tr.C_b_n[0]          # C_est = (I - [phi x]) C_true
         nav = NavState(0.0, lat, lon, tr.alt_m[0] + d_pos[2],
                        tr.vel_enu_mps[0] + np.asarray(self["filter.initial_error.vel_enu_mps"], float), C)
-        return initial_state_block(self.data, nav)
+        return state_values(initial_state_block(self.data, nav))
+
+    def filter_initial_state(self):
+        """The state the fusion node starts from: ``filter_initial_values``
+        as the node turns its parameters into a NavState, so an offline run
+        starts from the live node's state to the bit (the degree/radian and
+        matrix/quaternion round trip moves the attitude by ~1e-16, which the
+        covariance's cross terms amplify to ~1e-9 relative)."""
+        from hyper_nav_filter.core.initial_state import initial_state
+        return initial_state(self.filter_initial_values())
 
     def filter_config(self) -> FilterConfig:
         return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
@@ -520,6 +535,17 @@ def _validate_models(data: dict, source: str) -> None:
             obj = getattr(obj, attr)
         try:
             obj(data[block])
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: {exc}") from None
+    for block, (module, func) in AIDING_SCENARIO_CHECKS.items():
+        if block not in data:
+            continue
+        try:
+            check = getattr(importlib.import_module(module), func)
+        except ImportError:         # hyper_nav_aiding not installed
+            continue
+        try:
+            check(data)
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
     if "tracker" in data:

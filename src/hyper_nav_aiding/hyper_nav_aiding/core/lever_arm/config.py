@@ -38,6 +38,9 @@ PARAMS = (
     nonneg("min_improvement_m", FLOAT, 0.0, "publish only if the reward improves by more than this (m)"),
     ParamSpec("seed", INT, 0, "seed of the agent / identifier", lo=0, hi=2**31 - 1),
     ParamSpec("update_lead_s", FLOAT, 0.1, "model update epoch = newest IMU stamp seen + this (s)", lo=0.0, hi=10.0),
+    ParamSpec("gnss_hold_s", FLOAT, 2.0, "a fused state is taken once a GNSS fix stamped at or after it has come, "
+              "or the IMU is this far past it (a GNSS outage): the residuals and windows do not depend on the "
+              "order the topics arrive in (s)", lo=0.0, hi=60.0),
     ParamSpec("env.max_rel", FLOAT, 0.25, "search box: model in force x (1 +- max_rel)", lo=1e-3, hi=0.99),
     ParamSpec("env.action_scale", FLOAT, 0.05, "largest frequency change per step, relative", lo=1e-4, hi=0.99),
     ParamSpec("env.max_steps", INT, 5, "steps per episode (Table 3: 5)", lo=1, hi=1000),
@@ -63,6 +66,7 @@ class LeverArmLearningConfig:
     state_period_s: float
     reestimation: ReestimationConfig
     update_lead_s: float
+    gnss_hold_s: float
     worker_grace_s: float
     worker_nice: int
     diagnostics_period_s: float
@@ -85,7 +89,7 @@ class LeverArmLearningConfig:
                                     v["seed"], v["timeout_s"])
         except ValueError as exc:
             raise ConfigError(f"{prefix}{exc}") from None
-        return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["worker_grace_s"],
+        return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["gnss_hold_s"], v["worker_grace_s"],
                    v["worker_nice"], v["diagnostics_period_s"], v["qos.depth"])
 
     @classmethod

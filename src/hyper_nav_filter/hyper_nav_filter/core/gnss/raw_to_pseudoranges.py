@@ -50,6 +50,8 @@ state); the simulator has none either.
 """
 from __future__ import annotations
 
+import math
+
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -131,10 +133,15 @@ def check_ephemeris(eph: BroadcastEphemeris) -> None:
 
 class EphemerisStore:
     """Broadcast records by (system, prn); :meth:`select` picks the one valid
-    at an epoch (nearest toe, within 2 h GPS / 1 h BDS)."""
+    at an epoch (nearest toe, within 2 h GPS / 1 h BDS) among those received
+    by then. A record's reception time (the stamp of the message that brought
+    it; -inf when not known) keeps the choice a function of the stamps: a
+    record a receiver got later cannot be used for an earlier epoch, whatever
+    order the messages arrived in (issue 22)."""
 
     def __init__(self, records=()):
         self._by_sat: dict[tuple[str, int], list[BroadcastEphemeris]] = {}
+        self._received: dict[tuple, float] = {}       # (system, prn, week, toe) -> reception time (s)
         for r in records:
             self.add(r)
 
@@ -147,10 +154,13 @@ class EphemerisStore:
                 store.add(r)
         return store
 
-    def add(self, eph: BroadcastEphemeris) -> bool:
-        """Store a record (validated); False if the same (system, prn, week,
-        toe) is already stored (it is then replaced)."""
+    def add(self, eph: BroadcastEphemeris, received_s: float = -math.inf) -> bool:
+        """Store a record (validated) received at ``received_s``; False if the
+        same (system, prn, week, toe) is already stored (it is then replaced;
+        the earlier reception time is kept)."""
         check_ephemeris(eph)
+        key = (eph.system, int(eph.prn), eph.week, eph.toe)
+        self._received[key] = min(self._received.get(key, math.inf), float(received_s))
         recs = self._by_sat.setdefault((eph.system, int(eph.prn)), [])
         for i, r in enumerate(recs):
             if r.week == eph.week and r.toe == eph.toe:
@@ -159,8 +169,12 @@ class EphemerisStore:
         recs.append(eph)
         return True
 
-    def select(self, system: str, prn: int, t_gpst_s: float) -> BroadcastEphemeris | None:
+    def select(self, system: str, prn: int, t_gpst_s: float,
+               received_by_s: float = math.inf) -> BroadcastEphemeris | None:
+        """The record valid at ``t_gpst_s`` among those received by ``received_by_s``."""
         recs = self._by_sat.get((system, int(prn)))
+        if recs and received_by_s < math.inf:
+            recs = [r for r in recs if self._received[(r.system, int(r.prn), r.week, r.toe)] <= received_by_s + 1e-9]
         if not recs:
             return None
         return select_ephemeris(recs, recs[0].sat_id, float(system_time_s(system, t_gpst_s)))
@@ -218,7 +232,7 @@ def select_channels(raw: RawGnssEpoch, ephemerides, counters: Counter | None = N
         elif sys_k not in SUPPORTED_SYSTEMS:
             counters["channels_unsupported_system"] += 1
         else:
-            eph = store.select(sys_k, int(prn_k), raw.t_rx_gpst_s)
+            eph = store.select(sys_k, int(prn_k), raw.t_rx_gpst_s, raw.t_s)      # records received by the epoch
             if eph is None:
                 counters["channels_no_ephemeris"] += 1
             else:
@@ -338,9 +352,10 @@ class TightGnssInput:
         self.counters: Counter = Counter()
         self._pending: list[RawGnssEpoch] = []
 
-    def add_ephemeris(self, eph: BroadcastEphemeris) -> None:
-        """Store a record; raises MalformedGnssInput for an invalid one."""
-        self.ephemerides.add(eph)
+    def add_ephemeris(self, eph: BroadcastEphemeris, received_s: float = -math.inf) -> None:
+        """Store a record received at ``received_s`` (its message's stamp);
+        raises MalformedGnssInput for an invalid one."""
+        self.ephemerides.add(eph, received_s)
 
     def add_raw(self, raw: RawGnssEpoch) -> None:
         """Queue a raw epoch; raises MalformedGnssInput for a malformed one."""
@@ -349,7 +364,7 @@ class TightGnssInput:
 
     def _complete(self, raw: RawGnssEpoch) -> bool:
         t = raw.t_rx_gpst_s
-        return all(self.ephemerides.select(s, p, t) is not None
+        return all(self.ephemerides.select(s, p, t, raw.t_s) is not None
                    for s, p, ok in zip(raw.system, raw.prn, raw.locked) if ok and s in SUPPORTED_SYSTEMS)
 
     def ready(self, t_now_s: float) -> list[RawGnssEpoch]:
