@@ -7,13 +7,23 @@
    five runs each); their ratio;
    the real-time factor at 50, 100, 200 and 500 Hz IMU (measured at each
    rate, GNSS at the scenario's rate).
-2. Offline replay of a recorded default bag (300 s) through the core: real-time factor.
-3. (``--live``) the live node graph: the highest lossless real-time factor
+2. Offline replay of a recorded default bag (300 s) through the core: real-time factor
+   of the array path (what ``replay_filter`` runs) and of the per-message path, same process.
+3. The user's path (``user_path.py``): ``import_data`` and ``replay_filter --truth
+   --write-nav --write-std`` on the peer-format data set (672,399 IMU epochs at
+   200 Hz, ``peer_dataset.py``, written once into ``--peer-data``), each as its own
+   process (wall and CPU), beside the engine-only figure (section 1's ENU 21 at
+   200 Hz times the epochs) and the C++ peer's time (``--peer CMD`` in the same
+   run, else its figure measured elsewhere); ``--reference`` adds the
+   per-message path of both steps in the same run and the largest difference
+   of their outputs.
+4. (``--live``) the live node graph: the highest lossless real-time factor
    (fusion received == published on every input, from its /diagnostics) for
    the default scenario (50 Hz IMU) and seed 001 at its native 500 Hz, and
    the fusion node's CPU share at that factor.
 
-Options: ``--quick`` (shorter flights), ``--live``, ``--json PATH``.
+Options: ``--quick`` (shorter flights, a 300 s peer-format set), ``--live``, ``--json PATH``,
+``--no-user-path``, ``--reference``, ``--peer CMD``, ``--peer-data DIR``.
 """
 from __future__ import annotations
 
@@ -101,21 +111,45 @@ def engine_cost(sc, cfg, fast: bool, warmup: int = 200, kinds=None) -> tuple[flo
 
 def offline_replay(duration_s: float) -> dict:
     """Record the default scenario's sensor streams as a bag (offline, no
-    DDS) and time the replay through the core (``run_offline``)."""
+    DDS) and time its replay through the core, read and fed two ways in the
+    same process: the bag read into field arrays (``bag_arrays``, the core
+    fed by ``offline_arrays``: what ``replay_filter`` runs) and the
+    per-message path (rosbags message objects through ``run_offline``);
+    the least of three passes each, alternated."""
     from bag_fixture import write_sensor_bag
     from hyper_nav_filter.offline import run_offline
+    from hyper_nav_filter.offline_arrays import run_offline_arrays
     from hyper_nav_sim.core.bag import deserialize, read_bag
+    from hyper_nav_sim.core.bag_arrays import read_arrays
     sc = _scenario("default", None, duration_s)
     bag = scratch_dir("bag_") / "default"
     write_sensor_bag(sc, bag)
-    t0 = time.perf_counter()
-    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
-               if r.topic.lstrip("/") in ("imu/data_raw", "gnss/fix", "gnss/vel")]
-    t_read = time.perf_counter() - t0
-    sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
-    wall = time.perf_counter() - t0
-    return {"sim_s": sc["duration_s"], "wall_s": wall, "read_s": t_read, "rtf": sc["duration_s"] / wall,
-            "solutions": len(sols)}
+    args = (sc.filter_config(), sc.filter_initial_state(), sc.filter_sources())
+    topics = ("imu/data_raw", "gnss/fix", "gnss/vel")
+
+    def per_message():
+        t0 = time.perf_counter()
+        records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag) if r.topic.lstrip("/") in topics]
+        t_read = time.perf_counter() - t0
+        sols, _ = run_offline(records, *args, final=True)
+        return time.perf_counter() - t0, t_read, len(sols)
+
+    def arrays():
+        t0 = time.perf_counter()
+        b = read_arrays(bag, topics=["/" + t for t in topics])
+        t_read = time.perf_counter() - t0
+        sols, _, _ = run_offline_arrays(list(b.topics.values()), *args, final=True)
+        return time.perf_counter() - t0, t_read, len(sols)
+    arrays()                                                # compiled record walk loaded once
+    best = {"arrays": (float("inf"), 0, 0), "per_message": (float("inf"), 0, 0)}
+    for _ in range(3):
+        for name, fn in (("arrays", arrays), ("per_message", per_message)):
+            best[name] = min(best[name], fn())
+    out = {"sim_s": sc["duration_s"]}
+    for name, (wall, t_read, n) in best.items():
+        out[name] = {"wall_s": wall, "read_s": t_read, "rtf": sc["duration_s"] / wall, "solutions": n}
+    out["ratio"] = best["per_message"][0] / best["arrays"][0]
+    return out
 
 
 def main(argv=None) -> int:
@@ -123,6 +157,12 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--live", action="store_true", help="also search the highest lossless live real-time factor")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--no-user-path", action="store_true", help="skip import_data + replay_filter on the peer-format set")
+    ap.add_argument("--reference", action="store_true",
+                    help="also time the per-message path of the user's steps in the same run and compare the outputs")
+    ap.add_argument("--peer", default=None, help="command line of the C++ peer (KF-GINS) over the same files")
+    ap.add_argument("--peer-data", default=str(pathlib.Path(__file__).resolve().parent / ".data" / "peer"),
+                    help="where the peer-format data set is written once and kept")
     args = ap.parse_args(argv)
     dur = 10.0 if args.quick else 40.0
     out = {"configs": {}}
@@ -165,8 +205,16 @@ def main(argv=None) -> int:
           ", ".join(f"{k} {v:.2f}x" for k, v in out["ratio_to_15_state"].items()))
     rep = offline_replay(60.0 if args.quick else 300.0)
     out["offline_replay"] = rep
-    print(f"== offline replay of a {rep['sim_s']:.0f} s default bag: {rep['wall_s']:.1f} s wall "
-          f"(reading {rep['read_s']:.1f} s), {rep['rtf']:.0f}x real time, {rep['solutions']} solutions ==")
+    a, m = rep["arrays"], rep["per_message"]
+    print(f"== offline replay of a {rep['sim_s']:.0f} s default bag: arrays {a['wall_s']:.2f} s "
+          f"(reading {a['read_s']:.2f} s), {a['rtf']:.0f}x real time; per-message {m['wall_s']:.2f} s "
+          f"(reading {m['read_s']:.2f} s), {m['rtf']:.0f}x; ratio {rep['ratio']:.1f}; {a['solutions']} solutions ==")
+    if not args.no_user_path:
+        import user_path
+        engine_us = next(c["fast_us"] for lab, c in out["configs"].items() if lab.startswith("ENU 21, 200 Hz"))
+        up = user_path.run(args.peer_data, 300.0 if args.quick else 3362.0, args.reference, args.peer)
+        out["user_path"] = up
+        print("\n".join(user_path.report_lines(up, engine_us)))
     if args.live:
         from live_graph import live_search
         out["live"] = live_search(quick=args.quick)

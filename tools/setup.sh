@@ -60,5 +60,6 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
   touch install/.stamp
   # compile the filter's fast-path kernels into numba's on-disk cache now, not in a node's first callback
   ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
-    python -m hyper_nav_filter.core.warmup )
+    python -m hyper_nav_filter.core.warmup && \
+    python -c "from hyper_nav_sim.core.bag_arrays import warm_up; warm_up()" )
 fi

@@ -26,63 +26,42 @@ import json
 import os
 import pathlib
 import sys
-import time
 
 import numpy as np
 
 from .core import montecarlo
-from .progress import Progress
 
 
 def campaign(data: dict, runs: int, draws=montecarlo.DRAWS, grid_hz: float = 1.0, workers: int | None = None,
-             scheduler: str | None = None, first_run: int = 0, progress: Progress | None = None,
-             keep_runs: bool = False, max_workers: int | None = None) -> dict:
-    """Run ``runs`` Monte Carlo runs on dask and aggregate them (see the module
-    docstring). ``max_workers`` restricts the tasks to that many of the
-    cluster's workers (an existing cluster shared with other work)."""
-    from dask.distributed import Client, LocalCluster, as_completed
-    cluster = None
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        n = workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=40)
-        client = Client(cluster)
-    t0 = time.monotonic()
-    try:
-        allowed = sorted(client.scheduler_info()["workers"])[:max_workers] if max_workers else None
-        client.run(_warm_up, workers=allowed)          # every worker imports the core at once, in parallel
-        n_workers = len(allowed) if allowed else len(client.scheduler_info()["workers"])
-        futures = [client.submit(montecarlo.run_one, data, k, tuple(draws), grid_hz, pure=False, workers=allowed)
-                   for k in range(first_run, first_run + runs)]
-        results = []
-        for fut in as_completed(futures):
-            results.append(fut.result())
-            if progress is not None:
-                progress.update(len(results))
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    wall = time.monotonic() - t0
+             scheduler: str | None = None, first_run: int = 0, progress: bool = True,
+             keep_runs: bool = False, max_workers: int | None = None, out_dir=None) -> dict:
+    """Run ``runs`` Monte Carlo runs through the campaign engine
+    (``hyper_nav_sim.campaign``: dask, local cluster or ``scheduler``) and
+    aggregate them (see the module docstring). ``max_workers`` restricts the
+    tasks to that many of the cluster's workers (an existing cluster shared
+    with other work); ``out_dir``: one JSON per run (its metrics)."""
+    from . import campaign as engine
     skip = float((data.get("report") or {}).get("skip_s", 0.0))
-    results.sort(key=lambda r: r["k"])
+    jobs = [(data, k, tuple(draws), grid_hz) for k in range(first_run, first_run + runs)]
+    res = engine.run("mc_campaign", _run_one, jobs, keys=[f"run{k:04d}" for k in range(first_run, first_run + runs)],
+                     opts=engine.Options(workers, scheduler, max_workers), out_dir=out_dir,
+                     to_json=lambda r: montecarlo.run_metrics(r, skip), warm_up=WARM_UP, progress=progress)
+    results = res.results
     cpu = float(sum(r["cpu_s"] for r in results))
-    out = {"scenario": data["name"], "runs": runs, "draws": list(draws), "workers": n_workers,
-           "wall_s": wall, "runs_per_min": 60.0 * runs / wall, "cpu_s_per_run": cpu / runs,
-           "cores_used": cpu / wall,      # < workers when the machine is shared with other work
+    out = {"scenario": data["name"], "runs": runs, "draws": list(draws), "workers": res.workers,
+           "wall_s": res.wall_s, "runs_per_min": res.runs_per_min, "cpu_s_per_run": cpu / runs,
+           "cores_used": cpu / res.wall_s,      # < workers when the machine is shared with other work
            "per_run": [montecarlo.run_metrics(r, skip) for r in results], "stats": montecarlo.aggregate(results, skip)}
     if keep_runs:
         out["results"] = results
     return out
 
 
-def _warm_up() -> bool:
-    """Import what a run needs (a worker's first task would otherwise pay for it alone)."""
-    from hyper_nav_sim import offline_fly  # noqa: F401
-    from hyper_nav_sim.core import boost_glide, simulate  # noqa: F401
-    return True
+WARM_UP = ("hyper_nav_sim.offline_fly", "hyper_nav_sim.core.boost_glide", "hyper_nav_sim.core.simulate")
+
+
+def _run_one(job) -> dict:
+    return montecarlo.run_one(*job)
 
 
 def plot(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
@@ -200,11 +179,8 @@ def main(argv=None) -> int:
     where = args.scheduler or f"LocalCluster, {args.workers or os.cpu_count()} worker(s)"
     print(f"[mc_campaign] {sc.name}: {args.runs} runs of {sc['duration_s']} s, drawing {', '.join(draws)}; {where}",
           flush=True)
-    progress = Progress("mc_campaign", total=args.runs, unit="runs", sim=False, interval_s=5.0)
-    result = campaign(sc.data, args.runs, draws, args.grid_hz, args.workers, args.scheduler, progress=progress,
-                      max_workers=args.max_workers)
-    progress.done(f"{result['runs_per_min']:.1f} runs/min on {result['workers']} worker(s), "
-                  f"{result['cpu_s_per_run']:.1f} CPU s per run, {result['cores_used']:.2f} cores used")
+    result = campaign(sc.data, args.runs, draws, args.grid_hz, args.workers, args.scheduler,
+                      max_workers=args.max_workers, out_dir=out_dir / "runs")
     (out_dir / "campaign.json").write_text(json.dumps(_jsonable(result), indent=1))
     pngs = plot(result, out_dir)
     s = result["stats"]

@@ -58,3 +58,24 @@ def test_anees_band_covers_95_percent_of_simulated_averages():
     lo, hi = montecarlo.band(n, dof)
     means = chi2.rvs(dof, size=(4000, n), random_state=rng).mean(axis=1)
     assert np.mean((means > lo) & (means < hi)) == pytest.approx(0.95, abs=0.015)
+
+
+@pytest.mark.parametrize("name, duration_s, kind", [("seed004_tight", 6.0, "pseudorange"),
+                                                    ("seed003", 6.0, "baro")])
+def test_tightly_coupled_and_barometric_scenarios_are_drawn(tmp_path, name, duration_s, kind):
+    """mc_campaign runs take the scenario's declared sources: pseudoranges and barometric heights reach the filter."""
+    sc = apply_overrides(load_scenario(name), {"duration_s": duration_s, "report.skip_s": 1.0}, tmp_path)
+    r = montecarlo.run_one(sc.data, 0)
+    assert any(k.startswith(kind) for k in r["gated"]), r["gated"]
+    m = montecarlo.run_metrics(r, 1.0)
+    assert np.isfinite(m["pos_rms_3d"]) and m["pos_rms_3d"] < 50.0
+    again = montecarlo.run_one(sc.data, 0)                    # a run depends on (scenario, k) only
+    assert np.array_equal(again["err"]["pos"], r["err"]["pos"])
+
+
+def test_a_map_matching_source_is_refused_by_name(tmp_path):
+    data = apply_overrides(load_scenario("default"), {"duration_s": 2.0}, tmp_path).data
+    data["filter"]["sources"] = {"imu": {"type": "imu", "topic": "imu/data_raw"},
+                                 "geomag": {"type": "horizontal_fix", "topic": "geomag/fix"}}
+    with pytest.raises(ValueError, match="filter.sources.geomag"):
+        montecarlo.run_one(data, 0)

@@ -205,31 +205,48 @@ def reward_surface(setup: Setup, log) -> dict:
 
 
 # ---- 3. Table 5 over seeds ----------------------------------------------------------------
-def table5(setup: Setup, seeds, log) -> dict:
+def table5_run(job):
+    """One campaign run of Table 5: (setup, seed) -> the run, or None when the trigger did not fire."""
+    setup, seed = job
+    sc = _scenario(setup.scenario, seed, setup)
+    lc = _learning(sc)
+    cfg = sc.filter_config()
+    truth = np.asarray(sc.data["lever_arm"]["natural_freq_final_radps"], float)
+    fl = SimulatedFlight.from_scenario(sc)
+    window, t_fire, mon = triggered_window(fl, cfg, lc, setup.monitor_from_s)
+    if window is None:
+        return None
+    truth_w = fl.true_frequencies(window.t0_s, window.t_end_s)
+    rc = dataclasses.replace(lc.reestimation, seed=int(seed), timeout_s=3600.0)
+    res = reestimate(window, cfg, cfg.lever_arm_natural_freq_radps, rc)
+    return {"seed": int(seed), "t_trigger_s": t_fire, "window_s": [window.t0_s, window.t_end_s],
+            "trigger_statistic_m": mon.trigger.statistic_m, "truth_window_radps": truth_w.tolist(),
+            "learned_radps": res.freqs_radps.tolist(), "error_pct": _err_pct(res.freqs_radps, truth),
+            "reward_initial_m": res.reward_initial, "reward_m": res.reward, "accepted": res.accepted,
+            "reason": res.reason, "episode_rewards_m": res.episode_rewards, "n_passes": res.n_passes,
+            "wall_s": res.wall_s, "cpu_s": res.cpu_s, "sigma_crb_radps": None if res.sigma_radps is None else
+            np.asarray(res.sigma_radps).tolist(), "history": res.history,
+            "_window": window, "_cfg": cfg, "_truth": truth, "_rc": rc}
+
+
+def _run_json(r):
+    return None if r is None else {k: v for k, v in r.items() if not k.startswith("_")}
+
+
+def table5(setup: Setup, seeds, log, opts=None, out_dir=None) -> dict:
+    """Table 5 over seeds: every seed a run of the campaign engine (``hyper_nav_sim.campaign``, ``opts``)."""
+    from hyper_nav_sim import campaign
+    seeds = list(seeds)
+    done = campaign.run("reproduce_seed000", table5_run, [(setup, s) for s in seeds],
+                        keys=[f"table5_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
+                        out_dir=out_dir, to_json=_run_json, warm_up=("hyper_nav_aiding.reproduce_seed000",)).results
     runs = []
-    for seed in seeds:
-        sc = _scenario(setup.scenario, seed, setup)
-        lc = _learning(sc)
-        cfg = sc.filter_config()
-        truth = np.asarray(sc.data["lever_arm"]["natural_freq_final_radps"], float)
-        fl = SimulatedFlight.from_scenario(sc)
-        window, t_fire, mon = triggered_window(fl, cfg, lc, setup.monitor_from_s)
-        if window is None:
+    for seed, r in zip(seeds, done):
+        if r is None:
             log(f"  seed {seed}: the trigger did not fire")
             continue
-        truth_w = fl.true_frequencies(window.t0_s, window.t_end_s)
-        rc = dataclasses.replace(lc.reestimation, seed=int(seed), timeout_s=3600.0)
-        res = reestimate(window, cfg, cfg.lever_arm_natural_freq_radps, rc)
-        runs.append({"seed": int(seed), "t_trigger_s": t_fire, "window_s": [window.t0_s, window.t_end_s],
-                     "trigger_statistic_m": mon.trigger.statistic_m, "truth_window_radps": truth_w.tolist(),
-                     "learned_radps": res.freqs_radps.tolist(), "error_pct": _err_pct(res.freqs_radps, truth),
-                     "reward_initial_m": res.reward_initial, "reward_m": res.reward, "accepted": res.accepted,
-                     "reason": res.reason, "episode_rewards_m": res.episode_rewards, "n_passes": res.n_passes,
-                     "wall_s": res.wall_s, "cpu_s": res.cpu_s, "sigma_crb_radps": None if res.sigma_radps is None else
-                     np.asarray(res.sigma_radps).tolist(), "history": res.history,
-                     "_window": window, "_cfg": cfg, "_truth": truth, "_rc": rc})
-        r = runs[-1]
-        log(f"  seed {seed}: trigger at {t_fire:.1f} s; learned {_fmt_w(r['learned_radps'])} error "
+        runs.append(r)
+        log(f"  seed {seed}: trigger at {r['t_trigger_s']:.1f} s; learned {_fmt_w(r['learned_radps'])} error "
             f"{_fmt_pct(r['error_pct'])}; reward {r['reward_initial_m']:.4f} -> {r['reward_m']:.4f} m; "
             f"{r['n_passes']} passes {r['wall_s']:.1f} s wall {r['cpu_s']:.1f} s CPU")
     errs = np.abs([r["error_pct"] for r in runs])
@@ -288,31 +305,40 @@ def compare(runs_by_case: dict, log) -> dict:
     return out
 
 
-def excited_runs(setup: Setup, seeds, log) -> list:
+def excited_run(job) -> dict:
+    """One campaign run of the excited comparison: (setup, seed) -> the run."""
+    setup, seed = job
+    sc = _scenario(setup.excited, seed, setup)
+    lc = _learning(sc)
+    cfg = sc.filter_config()
+    truth = np.asarray(sc.data["lever_arm"]["natural_freq_final_radps"], float)
+    fl = SimulatedFlight.from_scenario(sc)
+    t1, T = setup.bound_window_end_s, lc.window_s
+    s, P = fl.fused_state_at(cfg, t1 - T)
+    w = model_consistent_window(with_gnss_sigmas(fl.window(s, P, T), *CARRIER_PHASE), cfg, truth,
+                                np.random.default_rng(1000 + seed))
+    rc = dataclasses.replace(lc.reestimation, seed=int(seed), timeout_s=3600.0)
+    res = reestimate(w, cfg, cfg.lever_arm_natural_freq_radps, rc)
+    return {"seed": int(seed), "learned_radps": res.freqs_radps.tolist(),
+            "error_pct": _err_pct(res.freqs_radps, truth), "reward_m": res.reward,
+            "reward_initial_m": res.reward_initial, "wall_s": res.wall_s, "cpu_s": res.cpu_s,
+            "n_passes": res.n_passes,
+            "episode_rewards_m": res.episode_rewards, "history": res.history,
+            "_window": w, "_cfg": cfg, "_truth": truth, "_rc": rc}
+
+
+def excited_runs(setup: Setup, seeds, log, opts=None, out_dir=None) -> list:
     """Windows where the bound allows: the excited flight with carrier-phase-
     grade fixes (the paper's r_G), GNSS moved onto the filter's own model at
     the true frequencies plus white noise of those sigmas (the perfect-model
-    switch), DDPG as in Table 5."""
-    runs = []
-    for seed in seeds:
-        sc = _scenario(setup.excited, seed, setup)
-        lc = _learning(sc)
-        cfg = sc.filter_config()
-        truth = np.asarray(sc.data["lever_arm"]["natural_freq_final_radps"], float)
-        fl = SimulatedFlight.from_scenario(sc)
-        t1, T = setup.bound_window_end_s, lc.window_s
-        s, P = fl.fused_state_at(cfg, t1 - T)
-        w = model_consistent_window(with_gnss_sigmas(fl.window(s, P, T), *CARRIER_PHASE), cfg, truth,
-                                    np.random.default_rng(1000 + seed))
-        rc = dataclasses.replace(lc.reestimation, seed=int(seed), timeout_s=3600.0)
-        res = reestimate(w, cfg, cfg.lever_arm_natural_freq_radps, rc)
-        runs.append({"seed": int(seed), "learned_radps": res.freqs_radps.tolist(),
-                     "error_pct": _err_pct(res.freqs_radps, truth), "reward_m": res.reward,
-                     "reward_initial_m": res.reward_initial, "wall_s": res.wall_s, "cpu_s": res.cpu_s,
-                     "n_passes": res.n_passes,
-                     "episode_rewards_m": res.episode_rewards, "history": res.history,
-                     "_window": w, "_cfg": cfg, "_truth": truth, "_rc": rc})
-        log(f"  excited seed {seed}: DDPG {_fmt_w(res.freqs_radps)} error {_fmt_pct(runs[-1]['error_pct'])}")
+    switch), DDPG as in Table 5; every seed a campaign run."""
+    from hyper_nav_sim import campaign
+    seeds = list(seeds)
+    runs = campaign.run("reproduce_seed000", excited_run, [(setup, s) for s in seeds],
+                        keys=[f"excited_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
+                        out_dir=out_dir, to_json=_run_json, warm_up=("hyper_nav_aiding.reproduce_seed000",)).results
+    for r in runs:
+        log(f"  excited seed {r['seed']}: DDPG {_fmt_w(r['learned_radps'])} error {_fmt_pct(r['error_pct'])}")
     return runs
 
 
@@ -352,7 +378,10 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="results/seed000_rl_dlac", help="output directory (JSON, PNGs)")
     ap.add_argument("--parts", default="1,2,3,4,5", help="parts to run (comma-separated; 4 and 5 need 3); "
                     "results of parts not run are kept from an existing JSON in --out")
+    from hyper_nav_sim import campaign
+    campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the seeds as a dask campaign
     args = ap.parse_args(argv)
+    opts = campaign.options(args)
     setup = SHORT if args.short else Setup()
     n_seeds = 1 if args.short else args.seeds
     n_cmp = 1 if args.short else min(args.compare_seeds, n_seeds)
@@ -377,12 +406,12 @@ def main(argv=None) -> int:
         result["surface"] = reward_surface(setup, log)
     if 3 in parts:
         log(f"\n3. Table 5 over {n_seeds} seeds ({setup.scenario}):")
-        t5 = table5(setup, range(n_seeds), log)
+        t5 = table5(setup, range(n_seeds), log, opts, out_dir / "runs")
         result["table5"] = t5
         print_table5(t5, log)
     if 4 in parts:
         log(f"\n4. Identifiers on the same windows and budget ({n_cmp} seeds):")
-        ex = excited_runs(setup, range(n_cmp), log)
+        ex = excited_runs(setup, range(n_cmp), log, opts, out_dir / "runs")
         result["compare"] = compare({"paper": t5["runs"][:n_cmp], "excited": ex}, log)
     if 5 in parts:
         log("\n5. Navigation errors over the flight (Figs. 10-11):")

@@ -129,6 +129,11 @@ def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, tim
     return result, t, errors, np.sqrt(np.diagonal(Pb, axis1=1, axis2=2)) * gm.STATE_SCALE[:6]
 
 
+def _scenario_run(job):
+    """One campaign run: ``run_scenario(*job)``."""
+    return run_scenario(*job)
+
+
 def lekf_run0_rmse(nums, lekf) -> np.ndarray:
     """RMSE (len(nums), 6) of the L-EKF over the scenarios ``nums`` on their
     own radar streams and initial errors (run 0 of the reproduction); one
@@ -213,6 +218,8 @@ def main(argv=None) -> int:
     ap.add_argument("--short", action="store_true", help="3 runs, scenario 1, first 200 s (a few seconds)")
     ap.add_argument("--lekf", default=None, help="L-EKF parameter set (default: the scenario's tracker.lekf_parameters)")
     ap.add_argument("--out", default="results/seed002")
+    from . import campaign
+    campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers
     args = ap.parse_args(argv)
     nums = [int(s) for s in args.scenarios.split(",")]
     runs, duration, timing = args.runs, None, 300
@@ -225,8 +232,11 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     results = {}
     t0 = time.monotonic()
-    for num in nums:
-        res, t, errors, sig = run_scenario(num, runs, lekf, duration, timing)
+    from . import campaign                 # every scenario (its radar-noise runs batched in one scan) a campaign run
+    done = campaign.run("repro_seed002", _scenario_run, [(num, runs, lekf, duration, timing) for num in nums],
+                        keys=[f"scenario{num}" for num in nums], opts=campaign.options(args), out_dir=out / "runs",
+                        to_json=lambda r: r[0], warm_up=("hyper_nav_sim.repro_seed002",)).results
+    for num, (res, t, errors, sig) in zip(nums, done):
         results[num] = res
         plot(out / f"scenario{num}_errors.png", num, t, errors, sig)
     print(f"seed 002 Table 2: RMSE over each flight, mean ± std over {runs} radar-noise runs "

