@@ -21,8 +21,8 @@ import sys
 import tempfile
 import time
 
-CMDS = {"seed003": ("hyper_nav_aiding.reproduce_seed003", "table3.json"),
-        "seed004": ("hyper_nav_aiding.reproduce_seed004", "seed004_tables.json")}
+CMDS = {"seed003": ("hyper_nav_repro.seed003.reproduce", "table3.json"),
+        "seed004": ("hyper_nav_repro.seed004.reproduce", "seed004_tables.json")}
 
 
 def _figures(x):

@@ -6,7 +6,7 @@ files and results in run order, whatever the number of workers.
 
     from hyper_nav_sim import campaign
     campaign.add_arguments(ap)                       # --workers, --scheduler, --max-workers
-    res = campaign.run("reproduce_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],
+    res = campaign.run("repro_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],
                        options=campaign.options(args), out_dir=out / "runs")
     res.results                                      # in the order of ``jobs``
 

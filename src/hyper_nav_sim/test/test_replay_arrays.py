@@ -1,4 +1,4 @@
-"""The offline replay on arrays (hyper_nav_filter.offline_arrays, core/fast_scoring)
+"""The offline replay on arrays (hyper_nav_filter.offline_arrays, core/array_io)
 against the per-message reference path: the same solutions bit for bit, the
 same counters, the same scores to 1e-12 and the same text files."""
 import pathlib

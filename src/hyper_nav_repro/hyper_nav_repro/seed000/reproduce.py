@@ -237,9 +237,9 @@ def table5(setup: Setup, seeds, log, opts=None, out_dir=None) -> dict:
     """Table 5 over seeds: every seed a run of the campaign engine (``hyper_nav_sim.campaign``, ``opts``)."""
     from hyper_nav_sim import campaign
     seeds = list(seeds)
-    done = campaign.run("reproduce_seed000", table5_run, [(setup, s) for s in seeds],
+    done = campaign.run("repro_seed000", table5_run, [(setup, s) for s in seeds],
                         keys=[f"table5_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
-                        out_dir=out_dir, to_json=_run_json, warm_up=("hyper_nav_aiding.reproduce_seed000",)).results
+                        out_dir=out_dir, to_json=_run_json, warm_up=("hyper_nav_repro.seed000.reproduce",)).results
     runs = []
     for seed, r in zip(seeds, done):
         if r is None:
@@ -334,9 +334,9 @@ def excited_runs(setup: Setup, seeds, log, opts=None, out_dir=None) -> list:
     switch), DDPG as in Table 5; every seed a campaign run."""
     from hyper_nav_sim import campaign
     seeds = list(seeds)
-    runs = campaign.run("reproduce_seed000", excited_run, [(setup, s) for s in seeds],
+    runs = campaign.run("repro_seed000", excited_run, [(setup, s) for s in seeds],
                         keys=[f"excited_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
-                        out_dir=out_dir, to_json=_run_json, warm_up=("hyper_nav_aiding.reproduce_seed000",)).results
+                        out_dir=out_dir, to_json=_run_json, warm_up=("hyper_nav_repro.seed000.reproduce",)).results
     for r in runs:
         log(f"  excited seed {r['seed']}: DDPG {_fmt_w(r['learned_radps'])} error {_fmt_pct(r['error_pct'])}")
     return runs

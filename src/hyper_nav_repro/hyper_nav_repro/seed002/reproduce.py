@@ -235,7 +235,7 @@ def main(argv=None) -> int:
     from . import campaign                 # every scenario (its radar-noise runs batched in one scan) a campaign run
     done = campaign.run("repro_seed002", _scenario_run, [(num, runs, lekf, duration, timing) for num in nums],
                         keys=[f"scenario{num}" for num in nums], opts=campaign.options(args), out_dir=out / "runs",
-                        to_json=lambda r: r[0], warm_up=("hyper_nav_sim.repro_seed002",)).results
+                        to_json=lambda r: r[0], warm_up=("hyper_nav_repro.seed002.reproduce",)).results
     for num, (res, t, errors, sig) in zip(nums, done):
         results[num] = res
         plot(out / f"scenario{num}_errors.png", num, t, errors, sig)

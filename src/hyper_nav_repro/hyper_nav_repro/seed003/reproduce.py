@@ -390,9 +390,9 @@ def _run(args) -> int:
     from hyper_nav_sim import campaign
     log(f"{len(jobs)} seeds on {campaign.where(campaign.options(args))}")
     t0 = time.perf_counter()
-    results = campaign.run("reproduce_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],
+    results = campaign.run("repro_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],
                            opts=campaign.options(args), out_dir=out / "runs", to_json=_seed_json,
-                           warm_up=("hyper_nav_aiding.reproduce_seed003",)).results
+                           warm_up=("hyper_nav_repro.seed003.reproduce",)).results
     wall = time.perf_counter() - t0
     table = summarize(results, rc, bounds, vbounds)
     table["wall_s"] = {"seeds": wall, "total": time.perf_counter() - t_start}

@@ -88,10 +88,10 @@ def run(seeds, worlds, variants, duration_s=None, overrides=None, log=print, opt
     (world, seed) a run of the campaign engine (``hyper_nav_sim.campaign``: dask, ``opts``)."""
     from hyper_nav_sim import campaign
     jobs = [(world, seed, tuple(variants), duration_s, overrides) for world in worlds for seed in seeds]
-    res = campaign.run("reproduce_seed004", run_flight, jobs, keys=[f"{w}_seed{s:03d}" for w, s, *_ in jobs],
+    res = campaign.run("repro_seed004", run_flight, jobs, keys=[f"{w}_seed{s:03d}" for w, s, *_ in jobs],
                        opts=opts or campaign.Options(), out_dir=out_dir,
                        to_json=lambda r: {v: st for v, (st, _) in r.items()},
-                       warm_up=("hyper_nav_aiding.reproduce_seed004",))
+                       warm_up=("hyper_nav_repro.seed004.reproduce",))
     out = {world: {v: {"per_seed": []} for v in variants} for world in worlds}
     for (world, seed, *_), by_v in zip(jobs, res.results):
         for v in variants:
@@ -198,7 +198,7 @@ def main(argv=None) -> int:
         return 2
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"[reproduce_seed004] {len(seeds)} seed(s) x {len(worlds)} world(s) on {campaign.where(campaign.options(a))}",
+    print(f"[repro_seed004] {len(seeds)} seed(s) x {len(worlds)} world(s) on {campaign.where(campaign.options(a))}",
           flush=True)
     results = run(seeds, worlds, variants, dur, over, opts=campaign.options(a), out_dir=out / "runs")
     print(table(results, len(seeds)))

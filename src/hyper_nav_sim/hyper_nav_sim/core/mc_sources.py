@@ -74,7 +74,7 @@ class Feed:
                     self.events.append((float(t), 2, n, lambda eng, msg=msg, src=src: src.on_message("main", msg, eng)))
             else:
                 raise ValueError(f"filter.sources.{src.spec.id}: type {typ!r} is not drawn in Monte Carlo campaigns "
-                                 "(map-matching aids run their matcher in the loop: see reproduce_seed003)")
+                                 "(map-matching aids run their matcher in the loop: see repro_seed003)")
         self.events.sort(key=lambda e: e[:3])
         self._j = 0
 

@@ -24,7 +24,7 @@ def _run(main, args, out, capsys):
 @pytest.mark.slow          # two local clusters and four short flights each: minutes on 2 cores
 @pytest.mark.parametrize("workers", [2])
 def test_seed004_same_tables_on_1_and_2_workers(tmp_path, capsys, workers):
-    from hyper_nav_aiding.reproduce_seed004 import main
+    from hyper_nav_repro.seed004.reproduce import main
     one = _run(main, ["--short", "--seeds", "2", "--workers", "1"], tmp_path / "one", capsys)
     two = _run(main, ["--short", "--seeds", "2", "--workers", str(workers)], tmp_path / "two", capsys)
     table = [ln for ln in one.splitlines() if "+-" in ln]
@@ -37,7 +37,7 @@ def test_seed004_same_tables_on_1_and_2_workers(tmp_path, capsys, workers):
 
 @pytest.mark.slow
 def test_seed003_same_tables_on_1_and_2_workers(tmp_path, capsys):
-    from hyper_nav_aiding.reproduce_seed003 import main
+    from hyper_nav_repro.seed003.reproduce import main
     _run(main, ["--short", "--workers", "1"], tmp_path / "one", capsys)
     _run(main, ["--short", "--workers", "2"], tmp_path / "two", capsys)
     a, b = (json.loads((d / "table3.json").read_text()) for d in (tmp_path / "one", tmp_path / "two"))
