@@ -30,6 +30,7 @@ import math
 import time
 
 from diagnostic_msgs.msg import KeyValue
+from rclpy.clock import Clock, ClockType
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 TOPIC = "/graph/allowance"
@@ -50,7 +51,9 @@ class ClockAllowance:
         self.step_s = float(step_s)
         self.source = source
         self._sent = None
-        node.create_timer(period_s, self._tick)
+        # a wall-clock (steady) timer: with use_sim_time a sim-time timer would wait for the very
+        # /clock this allowance lets the time source publish (a deadlock until the gate's timeout)
+        node.create_timer(period_s, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _tick(self) -> None:
         if self.source is not None:

@@ -218,7 +218,7 @@ def main(argv=None) -> int:
     ap.add_argument("--short", action="store_true", help="3 runs, scenario 1, first 200 s (a few seconds)")
     ap.add_argument("--lekf", default=None, help="L-EKF parameter set (default: the scenario's tracker.lekf_parameters)")
     ap.add_argument("--out", default="results/seed002")
-    from . import campaign
+    from hyper_nav_sim import campaign
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers
     args = ap.parse_args(argv)
     nums = [int(s) for s in args.scenarios.split(",")]
@@ -232,7 +232,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     results = {}
     t0 = time.monotonic()
-    from . import campaign                 # every scenario (its radar-noise runs batched in one scan) a campaign run
+    from hyper_nav_sim import campaign     # every scenario (its radar-noise runs batched in one scan) a campaign run
     done = campaign.run("repro_seed002", _scenario_run, [(num, runs, lekf, duration, timing) for num in nums],
                         keys=[f"scenario{num}" for num in nums], opts=campaign.options(args), out_dir=out / "runs",
                         to_json=lambda r: r[0], warm_up=("hyper_nav_repro.seed002.reproduce",)).results
