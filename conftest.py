@@ -6,9 +6,11 @@
   ``tools/run_tests.sh`` (``make test``) gives each lane its own domain; a
   bare ``pytest`` takes one derived from its pid; a pytest-xdist worker takes
   its master's domain + 1 + its index.
-* Tests that start node processes over DDS (marker ``graph``) all go to the
-  same xdist worker (``--dist loadgroup``) if they run under xdist at all, so
-  two graphs never overlap; ``make test`` runs them in their own lane.
+* Tests that start node processes over DDS (marker ``graph``) go to one
+  xdist worker per test file (``--dist loadgroup``): a file's module-scoped
+  graph (a recorded run, a scratch checkout) is started once, and graphs of
+  two files may fly at once, each in its worker's own domain. ``make test``
+  runs them in their own lane, on two workers.
 """
 import os
 
@@ -25,4 +27,4 @@ os.environ.setdefault("HYPER_NAV_TEST_DOMAIN", os.environ["ROS_DOMAIN_ID"])
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.get_closest_marker("graph"):
-            item.add_marker(pytest.mark.xdist_group("graph"))
+            item.add_marker(pytest.mark.xdist_group(f"graph:{item.path.name}"))

@@ -80,6 +80,16 @@ CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav
 CORE_ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
 CLOCK_SOURCES = ("truth", "player")          # publish /clock; their normal exit ends the run
+
+
+class _NoAliasDumper(yaml.SafeDumper):
+    """YAML without anchors: rcl's parameter-file parser refuses aliases ("Will
+    not support aliasing"), which a list shared by two parameters produces."""
+
+    def ignore_aliases(self, data):
+        return True
+
+
 CRITICAL_STREAMS = ("imu/data_raw", "nav/state")
 # topics a replay feeds into the graph (the rest of a recorded run is its own output)
 REPLAY_TOPICS = ("imu/data_raw", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris", "imu/mag",
@@ -346,7 +356,7 @@ class Graph:
 
     def _params_file(self, name: str) -> pathlib.Path:
         path = self.workdir / f"{name}.params.yaml"
-        path.write_text(yaml.safe_dump({"/**": {"ros__parameters": self._params(name)}}))
+        path.write_text(yaml.dump({"/**": {"ros__parameters": self._params(name)}}, Dumper=_NoAliasDumper))
         return path
 
     # ---- processes -------------------------------------------------------------
@@ -415,10 +425,12 @@ class Graph:
         return out
 
     def wait_idle(self, min_s: float = 0.5, max_s: float = 60.0, window_s: float = 0.5,
-                  busy_fraction: float = 0.03, quiet_windows: int = 2) -> float:
+                  busy_fraction: float = 0.15, quiet_windows: int = 2) -> float:
         """Let every node finish what is queued: wait until, over
         ``quiet_windows`` windows of ``window_s`` in a row, no node process used
-        more than ``busy_fraction`` of a CPU (an idle rclpy node uses < 1 %),
+        more than ``busy_fraction`` of a CPU (an idle node uses up to about 6 %
+        with its wall-clock timers: the recorder's clock allowance at 20 Hz and
+        topic discovery; a node working through a queue uses most of a core),
         at least ``min_s``, at most ``max_s``. A fixed drain is too short on a
         loaded machine (a fusion node still working through its input queue
         at SIGINT never sees the rest) and too long on an idle one. Returns
@@ -498,7 +510,7 @@ class Graph:
         """``scenario.yaml`` and ``run_graph.json`` beside the bag's MCAP file."""
         if not (self.record and self.record.is_dir()):
             return
-        (self.record / "scenario.yaml").write_text(yaml.safe_dump(self.scenario.data, sort_keys=False))
+        (self.record / "scenario.yaml").write_text(yaml.dump(self.scenario.data, Dumper=_NoAliasDumper, sort_keys=False))
         info = {"scenario": self.scenario.name, "nodes": list(self.nodes), "replay": str(self.replay or ""),
                 "exits": self.exits, "stopped_by": self.stop_reason or "stopped", "interrupted": self.interrupted,
                 "wall_s": round(time.monotonic() - self.t_start, 2) if self.t_start else None,

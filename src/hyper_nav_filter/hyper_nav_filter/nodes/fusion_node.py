@@ -26,6 +26,7 @@ from hyper_nav_msgs.msg import NavState as NavStateMsg
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix
 from tf2_msgs.msg import TFMessage
 
@@ -74,6 +75,10 @@ NODE_PARAMS = (
     positive("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the newest "
              "IMU epoch processed (/graph/allowance, hyper_nav_filter.clock_gate; waited for when the time source "
              "lists this node)"),
+    positive("clock.imu_gap_s", FLOAT, 0.25, "when the /clock this node has taken is this far (sim s) past its newest "
+             "IMU epoch (a gap in the IMU data, the end of a truncated bag, a dead IMU node), the allowance follows "
+             "that /clock (+ clock.lead_s) instead: an empty IMU stream is not a node behind its queue. Below "
+             "clock.lead_s, or the clock could never get there"),
 )
 _OUTPUTS = ("nav/state", "nav/odom", "nav/fix")
 
@@ -114,8 +119,12 @@ class FusionNode(Node):
         # inputs received behind the IMU (replay_order): transient local, so a late-joining recorder gets them
         self.pub_late = self.create_publisher(LateInput, LATE_INPUTS_TOPIC, latched_qos(p["qos.depth"]))
         self.late = LateInputTracker()
+        if not p["clock.imu_gap_s"] < p["clock.lead_s"]:
+            raise ConfigError(f"clock.imu_gap_s ({p['clock.imu_gap_s']}) must be below clock.lead_s "
+                              f"({p['clock.lead_s']}): the clock could never pass an IMU gap")
         self.allowance = ClockAllowance(self)
-        self.allowance.set(self.engine.t_latest_s + p["clock.lead_s"])
+        self._clock_s = -np.inf          # the newest /clock taken (in this executor, beside the inputs)
+        self._set_allowance()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
         if self.pub_tf is not None:
@@ -159,6 +168,7 @@ class FusionNode(Node):
             self._publish_static_transforms()
         self._wait_timer.cancel()
         depth = self.p["qos.depth"]
+        self._subs.append(self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000)))
         # latched inputs (ephemerides) first: when both are ready, the executor takes them in creation order
         pairs = [(src, inp) for src in self.router.sources for inp in src.inputs()]
         for src, inp in sorted(pairs, key=lambda si: not si[1].latched):
@@ -182,10 +192,22 @@ class FusionNode(Node):
             self.get_logger().warning(f"{src.id}: rejected {role} message: {reason}", throttle_duration_sec=5.0)
         if src.drives_time and reason is None:
             self.late.imu_accepted(t_ns)
-            self.allowance.set(self.engine.t_latest_s + self.p["clock.lead_s"])
+            self._set_allowance()
         if report is not None:
             self._publish_late(msg, report, reason or ("applied_after_release" if after_release else "applied"))
         self._publish(sols)
+
+    def _on_clock(self, msg):
+        self._clock_s = max(self._clock_s, msg.clock.sec + msg.clock.nanosec * 1e-9)
+        self._set_allowance()
+
+    def _set_allowance(self):
+        """/graph/allowance (clock_gate): the newest IMU epoch + clock.lead_s;
+        the /clock taken + clock.lead_s once that is clock.imu_gap_s past the
+        newest IMU (no IMU data to wait for)."""
+        t_imu, lead = self.engine.t_latest_s, self.p["clock.lead_s"]
+        t = self._clock_s if self._clock_s > t_imu + self.p["clock.imu_gap_s"] else t_imu
+        self.allowance.set(t + lead)
 
     def _publish_late(self, msg, report, outcome):
         """Report an input received behind the IMU (``nav/late_inputs``), so a
