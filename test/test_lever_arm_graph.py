@@ -143,7 +143,9 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
                if r.topic in ("/imu/data_raw", "/gnss/fix", "/gnss/vel", "/test/late_fix", "/nav/model_update",
                               "/nav/late_inputs")]
     sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
-    assert eng.replay.missing == () and eng.replay.placed >= sent - stale
+    # every input the node reported late was found in the bag and placed where the node took it (how many
+    # of the late copies were behind the IMU at the node depends on scheduling: not asserted)
+    assert eng.replay.missing == () and eng.replay.placed == int(fusion["published nav/late_inputs"]) > 0
     live = run["nav"]
     assert len(live) == len(sols) > 40 * (DURATION_S - 2)
     assert eng.counters["model_update_received"] == 1 and eng.counters["gnss_pos_late"] > 0

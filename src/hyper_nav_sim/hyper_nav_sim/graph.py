@@ -77,7 +77,7 @@ CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav
                     "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
                     "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
 # ROS node names where they differ from the graph's process names
-CORE_ROS_NAMES = {"mag": "magnetometer", "baro": "barometer"}
+CORE_ROS_NAMES = {"mag": "magnetometer", "baro": "barometer", "foxglove": "foxglove_view"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
 CLOCK_SOURCES = ("truth", "player")          # publish /clock; their normal exit ends the run
 

@@ -9,6 +9,7 @@ import shutil
 import numpy as np
 import pytest
 
+from hyper_nav_filter.offline_arrays import log_order, stamp_order
 from hyper_nav_sim.core import bag_arrays
 from hyper_nav_sim.core.bag import BagWriter, deserialize, read_bag, serialize, typestore
 
@@ -119,7 +120,7 @@ def test_compiled_record_walk_equals_the_plain_walk():
         assert np.array_equal(a, b)
 
 
-def test_feed_order_is_stamp_then_topic_name_then_log_order(tmp_path):
+def test_stamp_order_is_stamp_then_topic_name_then_log_order(tmp_path):
     T = typestore().types
     path = tmp_path / "order"
     with BagWriter(path) as w:
@@ -131,12 +132,12 @@ def test_feed_order_is_stamp_then_topic_name_then_log_order(tmp_path):
                 w.write(topic, "sensor_msgs/msg/NavSatFix", 100 + i, serialize(m, "sensor_msgs/msg/NavSatFix"))
     b = bag_arrays.read_arrays(path)
     imu, fix = b.topics["/imu/data_raw"], b.topics["/gnss/fix"]
-    which, row = bag_arrays.feed_order(imu, fix)
+    which, row = stamp_order([imu, fix])
     got = [((imu, fix)[w].topic, int((imu, fix)[w].stamp_ns[r] // 10**9), float((imu, fix)[w]["latitude"][r]))
            for w, r in zip(which, row)]
     assert got == [("/gnss/fix", 1, 1.0), ("/imu/data_raw", 1, 1.0), ("/gnss/fix", 2, 0.0),
                    ("/imu/data_raw", 2, 2.0), ("/imu/data_raw", 2, 3.0), ("/imu/data_raw", 3, 0.0)]
-    which, row = bag_arrays.log_order(imu, fix)
+    which, row = log_order([imu, fix])
     assert [(imu, fix)[w].t_ns[r] for w, r in zip(which, row)] == [100, 100, 101, 101, 102, 103]
 
 
@@ -173,7 +174,7 @@ def test_the_array_writer_writes_the_messages_of_the_per_message_writer(imported
             else:
                 assert np.array_equal(col, b[path]), (topic, path)
     # the same log order across topics (ties: imu, gnss, truth, as written)
-    order = [bag_arrays.log_order(*(x.topics[t] for t in sorted(x.topics))) for x in (fast, ref)]
+    order = [log_order([x.topics[t] for t in sorted(x.topics)]) for x in (fast, ref)]
     assert np.array_equal(order[0][0], order[1][0]) and np.array_equal(order[0][1], order[1][1])
     meta_fast = (imported_twice[0] / "metadata.yaml").read_text()
     meta_ref = (imported_twice[1] / "metadata.yaml").read_text()

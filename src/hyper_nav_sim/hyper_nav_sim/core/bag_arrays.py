@@ -402,30 +402,6 @@ def read_arrays(path, topics: Iterable[str] | None = None) -> BagArrays:
     return BagArrays(path, col.result(), truncated=bool(problems), error="; ".join(problems) or None)
 
 
-def feed_order(*topics: TopicArrays) -> tuple[np.ndarray, np.ndarray]:
-    """The messages of several topics in stamp order, as the offline replay
-    orders them (``hyper_nav_filter.replay_order``: stamp, then topic name
-    without its leading '/', then occurrence, i.e. log order within a topic
-    and stamp): (topic index, row) arrays."""
-    names = [t.topic.lstrip("/") for t in topics]
-    rank = {n: r for r, n in enumerate(sorted(names))}
-    which = np.concatenate([np.full(len(t), i, np.int64) for i, t in enumerate(topics)])
-    row = np.concatenate([np.arange(len(t), dtype=np.int64) for t in topics])
-    stamp = np.concatenate([t.stamp_ns for t in topics])
-    name_rank = np.array([rank[n] for n in names], np.int64)[which]
-    order = np.lexsort((row, name_rank, stamp))
-    return which[order], row[order]
-
-
-def log_order(*topics: TopicArrays) -> tuple[np.ndarray, np.ndarray]:
-    """The messages of several topics in the bag's log order (log time, ties
-    in file order: what ``bag.BagReader`` yields): (topic index, row) arrays."""
-    which = np.concatenate([np.full(len(t), i, np.int64) for i, t in enumerate(topics)])
-    row = np.concatenate([np.arange(len(t), dtype=np.int64) for t in topics])
-    order = np.lexsort((np.concatenate([t.seq for t in topics]), np.concatenate([t.t_ns for t in topics])))
-    return which[order], row[order]
-
-
 # --- writing ---------------------------------------------------------------------------
 @dataclass
 class TopicColumns:

@@ -46,11 +46,14 @@ class FoxgloveViewNode(Node):
         self.create_subscription(TFMessage, "/tf", self.sink.on_tf, qos)
         self.create_subscription(TFMessage, "/tf_static", self.sink.on_tf, latched)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
+        self._heartbeat = 0
         self.create_timer(1.0, self._diag)
         self.get_logger().info(f"Foxglove WebSocket on ws://{self.p['host']}:{self.sink.port}")
 
     def _diag(self):
-        values = {"port": self.sink.port, **{f"logged {k}": v for k, v in self.sink.counts.items()}}
+        self._heartbeat += 1               # the monitor's liveness (graph node "foxglove")
+        values = {"port": self.sink.port, "heartbeat": self._heartbeat,
+                  **{f"logged {k}": v for k, v in self.sink.counts.items()}}
         self.pub_diag.publish(diagnostic_array(self, "hyper_nav_sim: foxglove_view", True,
                                                f"serving ws://{self.p['host']}:{self.sink.port}", values))
 
