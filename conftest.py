@@ -10,7 +10,7 @@
   xdist worker per test file (``--dist loadgroup``): a file's module-scoped
   graph (a recorded run, a scratch checkout) is started once, and graphs of
   two files may fly at once, each in its worker's own domain. ``make test``
-  runs them in their own lane, on two workers.
+  runs them in their own lane, one at a time (tools/run_tests.sh says why).
 """
 import os
 

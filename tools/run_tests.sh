@@ -3,16 +3,16 @@
 # 2 cores:
 #   * the node-graph tests (marker `graph`: real node processes over DDS,
 #     paced by the simulated clock, which waits for the nodes it must not
-#     outrun: hyper_nav_filter.clock_gate) on two pytest-xdist workers, one test
-#     file per worker at a time (conftest.py), at normal priority: a graph run
-#     spends most of its wall time waiting for its real-time pace;
-#   * beside them, the unit tests on two workers at nice 19: they take the CPU
-#     the graphs leave idle.
+#     outrun: hyper_nav_filter.clock_gate) one at a time, at normal priority;
+#     a graph run uses about 0.6 of the 2 cores on average (measured: two
+#     graph lanes at once saturate the cores and starve the unit lane, for
+#     no gain in total time);
+#   * beside them, the unit tests on two pytest-xdist workers at nice 19: they
+#     take the CPU the graphs leave idle.
 # Each lane and each worker has its own ROS domain (a block of six derived
-# from this shell's pid: graph lane and its two workers, unit lane and its
-# two workers), so nothing crosses between lanes or with another suite
-# running on the machine. Extra arguments go to both pytest runs (e.g. -k,
-# --durations=20). Exit status: non-zero if either lane fails; the unit
+# from this shell's pid), so nothing crosses between lanes or with another
+# suite running on the machine. Extra arguments go to both pytest runs (e.g.
+# -k, --durations=20). Exit status: non-zero if either lane fails; the unit
 # lane's output follows the graph lane's.
 set -u
 cd "$(dirname "$0")/.."
@@ -24,8 +24,8 @@ ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 pytho
     > "$unit_log" 2>&1 &
 unit_pid=$!
 trap 'kill -- -$unit_pid 2>/dev/null; kill $unit_pid 2>/dev/null' INT TERM
-echo "[make test] node-graph tests on 2 workers; unit tests beside them (nice 19, 2 workers; output below when done)"
-ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -n 2 --dist loadgroup -m graph "$@"
+echo "[make test] node-graph tests one at a time; unit tests beside them (nice 19, 2 workers; output below when done)"
+ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph "$@"
 g=$?
 wait $unit_pid
 u=$?

@@ -59,7 +59,10 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
     --event-handlers console_cohesion- summary+ 2>&1 | tail -n 20
   touch install/.stamp
   # compile the filter's fast-path kernels into numba's on-disk cache now, not in a node's first callback
+  # (the two frames' kernels and the bag reader's in parallel: the machine has two cores)
   ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
-    python -m hyper_nav_filter.core.warmup && \
-    python -c "from hyper_nav_sim.core.bag_arrays import warm_up; warm_up()" )
+    { python -m hyper_nav_filter.core.warmup ENU & e=$!; \
+      { python -m hyper_nav_filter.core.warmup LCI && \
+        python -c "from hyper_nav_sim.core.bag_arrays import warm_up; warm_up()"; } & l=$!; \
+      wait $e && wait $l; } )
 fi

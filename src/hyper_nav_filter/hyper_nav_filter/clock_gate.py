@@ -14,7 +14,12 @@ slower in wall time, and what it computes is the same.
 What the nodes allow (README, Timing):
 
 * fusion: its newest IMU epoch + ``clock.lead_s`` (it never lags further);
-* recorder: the newest ``/clock`` it recorded + ``clock.lead_s``;
+  the ``/clock`` it took + ``clock.lead_s`` once that is ``clock.imu_gap_s``
+  past its newest IMU (a gap in the IMU data: nothing to wait for);
+* recorder: the header stamp of the newest IMU message it wrote +
+  ``clock.lead_s`` (``hyper_nav_sim/core/record_pace.py``; its node clock is
+  the newest ``/clock``, which says nothing of its queues), its node clock +
+  ``clock.lead_s`` while the IMU stream is silent;
 * aiding nodes with an output pending for an epoch t (a geomagnetic fix, a
   virtual GNSS epoch, a learned model update stamped t): t +
   ``clock.deadline_s`` (the fusion node's ``output_delay_s`` minus a margin),

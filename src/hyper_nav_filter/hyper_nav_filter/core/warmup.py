@@ -16,11 +16,12 @@ from .measurements import GnssPosition, GnssVelocity, ModelContext
 from .nav_state import ImuSample, NavState
 
 
-def warm_up() -> float:
-    """Run each kernel once on a small filter; returns the seconds it took."""
+def warm_up(frames=("ENU", "LCI")) -> float:
+    """Run each kernel once on a small filter in each mechanization frame of
+    ``frames``; returns the seconds it took."""
     t0 = time.perf_counter()
     nav = NavState(0.0, 0.5, 2.0, 1000.0, np.array([100.0, 0.0, 0.0]), np.eye(3))
-    for frame in ("ENU", "LCI"):
+    for frame in frames:
         cfg = FilterConfig(mechanization_frame=frame, state_blocks=("att", "vel", "pos", "bg", "gm", "ba", "lev"))
         kf = ErrorStateKF(cfg, nav)
         for k in (1, 2):
@@ -35,4 +36,9 @@ def warm_up() -> float:
 
 
 if __name__ == "__main__":
-    print(f"[setup] fast-path kernels ready in {warm_up():.1f} s")
+    import sys
+    # `python -m hyper_nav_filter.core.warmup [ENU|LCI ...]`: make setup compiles the two frames' kernels in
+    # two processes at once (numba's cache takes concurrent writers: each entry is written to a temporary
+    # file and renamed)
+    frames = tuple(sys.argv[1:]) or ("ENU", "LCI")
+    print(f"[setup] fast-path kernels ({', '.join(frames)}) ready in {warm_up(frames):.1f} s")

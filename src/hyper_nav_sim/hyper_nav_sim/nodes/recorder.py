@@ -45,6 +45,7 @@ from hyper_nav_filter.clock_gate import TOPIC as ALLOWANCE_TOPIC
 from hyper_nav_filter.clock_gate import ClockAllowance
 from hyper_nav_filter.ros_util import declare_params
 from hyper_nav_sim.core.bag import INFINITE, BagWriter, playback_qos, qos_profile, typestore
+from hyper_nav_sim.core.record_pace import RecordPace, header_stamp_s
 from hyper_nav_sim.nodes.params import RECORDER
 from hyper_nav_sim.nodes.status import NodeStatus
 
@@ -74,10 +75,12 @@ class Recorder(Node):
         self.bag = BagWriter(output)
         self.subs = {}  # topic -> subscription (None: not recordable)
         self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
-        # the clock waits for this recorder: its own sim time (it takes /clock in the same executor as the
-        # messages, so a recorder behind its queues holds the clock) + clock.lead_s
-        self.allowance = ClockAllowance(self, source=lambda: self.get_clock().now().nanoseconds * 1e-9 +
-                                        self.p["clock.lead_s"])
+        # the clock waits for this recorder: the newest IMU stamp it wrote + clock.lead_s (its node clock is
+        # the newest /clock, not how far it has worked through its queues: core/record_pace.py)
+        self.pace_topic = p["clock.pace_topic"]
+        self.pace = RecordPace(p["clock.lead_s"], p["clock.gap_wall_s"])
+        self.allowance = ClockAllowance(self, source=lambda: self.pace.allowance_s(
+            self.get_clock().now().nanoseconds * 1e-9, time.monotonic()))
         self.status = NodeStatus(self, "hyper_nav_sim: recorder")
         # wall-clock timers: with use_sim_time the node clock stands still until /clock starts
         wall = Clock(clock_type=ClockType.STEADY_TIME)
@@ -122,6 +125,10 @@ class Recorder(Node):
 
     def on_message(self, topic: str, msgtype: str, raw: bytes):
         self.bag.write(topic, msgtype, self.get_clock().now().nanoseconds, raw)
+        if topic == self.pace_topic:
+            stamp = header_stamp_s(raw)
+            if stamp is not None:
+                self.pace.written(stamp, time.monotonic())
 
     def publish_counts(self):
         status = DiagnosticStatus(level=DiagnosticStatus.OK, name="recorder")
