@@ -14,7 +14,11 @@ budget (filter passes) as the DDPG agent, for comparison:
   diagonal), then Levenberg-Marquardt on the Gauss-Newton (scoring)
   approximation with the innovation sensitivities from forward differences
   of filter passes (4 passes per iteration); its information matrix gives the
-  estimate's Cramer-Rao sigma for free.
+  estimate's Cramer-Rao sigma for free. It reports ``converged`` only when
+  the step is below ``tol_rel`` *and* the Newton decrement g^T I^-1 g (the
+  log-likelihood still to gain to second order) is below ``tol_nll``, with
+  no frequency on the search box's edge: a step clipped by the box is small
+  without being converged, and an edge answer says ``on the box edge``.
 
 Each works in the environment's normalised coordinates x = (w / w_ref - 1) /
 max_rel in [-1, 1]^3 and counts every pass.
@@ -90,8 +94,18 @@ def _scoring_terms(window, cfg, w, rel_step):
     return base.neg_log_likelihood(), g, info
 
 
+def _stop_note(w, g, info, lo, hi, edge_rel: float, tol_nll: float) -> str | None:
+    """After a small step: "converged", "on the box edge ..." or None (go on)."""
+    on_edge = (w <= lo * (1.0 + edge_rel)) | (w >= hi * (1.0 - edge_rel))
+    if np.any(on_edge):
+        return "on the box edge (frequency " + ", ".join(str(i + 1) for i in np.flatnonzero(on_edge)) + \
+            "): not converged"
+    decrement = float(g @ np.linalg.lstsq(info, g, rcond=None)[0])
+    return "converged" if decrement < tol_nll else None
+
+
 def max_likelihood(env, budget: int, rel_step: float = 1e-4, tol_rel: float = 1e-7,
-                   grid_points: int = 11) -> IdentResult:
+                   grid_points: int = 11, tol_nll: float = 1e-3, edge_rel: float = 1e-6) -> IdentResult:
     """Per-frequency scans (``grid_points`` each, 0: none) from the
     environment's initial model, then Levenberg-Marquardt on the innovations'
     negative log-likelihood within the search box (module doc)."""
@@ -120,18 +134,23 @@ def max_likelihood(env, budget: int, rel_step: float = 1e-4, tol_rel: float = 1e
         nll_new = replay(window, cfg, w_new).neg_log_likelihood()
         used += 1
         if nll_new < nll:
-            converged = np.all(np.abs(w_new - w) < tol_rel * w)
+            small = np.all(np.abs(w_new - w) < tol_rel * w)
             w, lam = w_new, max(lam / 3.0, 1e-9)
             nll, g, info = _scoring_terms(window, cfg, w, rel_step)
             used += 4
-            if converged:
-                note = "converged"
+            stop = _stop_note(w, g, info, env.lo, env.hi, edge_rel, tol_nll) if small else None
+            if stop is not None:
+                note = stop
                 break
         else:
             lam *= 5.0
             if lam > 1e12:
-                note = "no descent"
+                edge = _stop_note(w, g, info, env.lo, env.hi, edge_rel, np.inf)
+                note = edge if edge != "converged" else "no descent"
                 break
+    if note == "budget":
+        edge = _stop_note(w, g, info, env.lo, env.hi, edge_rel, np.inf)
+        note = edge if edge != "converged" else "budget"
     env.n_passes += used
     reward = env.evaluate(w)
     sigma = np.sqrt(np.abs(np.diag(np.linalg.pinv(info))))

@@ -22,3 +22,61 @@ def test_max_likelihood_reaches_the_bound(doublet, pm_window_noisy):
     assert np.all(np.abs(err) < 3 * crb)
     np.testing.assert_allclose(res.sigma_radps, crb, rtol=0.3)
     assert res.n_passes <= 31
+
+
+class _Quadratic:
+    """A stand-in likelihood: 1/2 (w - w_min)^T I (w - w_min), its filter pass counted."""
+
+    def __init__(self, w_min, info):
+        self.w_min, self.info = np.asarray(w_min, float), np.asarray(info, float)
+
+    def nll(self, w):
+        d = np.asarray(w, float) - self.w_min
+        return 0.5 * float(d @ self.info @ d)
+
+
+class _Env:
+    def __init__(self, w_init, lo, hi):
+        self.window = self.filter_cfg = None
+        self.w_init, self.lo, self.hi = np.asarray(w_init, float), np.asarray(lo, float), np.asarray(hi, float)
+        self.n_passes = 0
+
+    def check_deadline(self):
+        pass
+
+    def evaluate(self, w):
+        return -1.0
+
+
+def _with_quadratic(monkeypatch, q):
+    class _Pass:
+        def __init__(self, w):
+            self.w = w
+
+        def neg_log_likelihood(self):
+            return q.nll(self.w)
+
+    monkeypatch.setattr(identifiers, "replay", lambda window, cfg, w: _Pass(np.asarray(w, float)))
+    monkeypatch.setattr(identifiers, "_scoring_terms",
+                        lambda window, cfg, w, rel_step: (q.nll(w), q.info @ (np.asarray(w) - q.w_min), q.info))
+
+
+def test_an_interior_optimum_is_converged_with_its_information_sigma(monkeypatch):
+    info = np.diag([4.0, 1.0, 0.25])
+    _with_quadratic(monkeypatch, _Quadratic([20.0, 57.0, 92.0], info))
+    res = identifiers.max_likelihood(_Env([21.0, 55.0, 95.0], [15.0, 40.0, 70.0], [30.0, 70.0, 120.0]), 60,
+                                     grid_points=0)
+    assert res.note == "converged", res.note
+    np.testing.assert_allclose(res.freqs_radps, [20.0, 57.0, 92.0], atol=1e-6)
+    np.testing.assert_allclose(res.sigma_radps, [0.5, 1.0, 2.0], rtol=1e-9)
+
+
+def test_a_box_edge_answer_is_never_reported_converged(monkeypatch):
+    """The likelihood's optimum for frequency 3 lies beyond the box: the
+    search stops on the edge, and says so instead of "converged"."""
+    _with_quadratic(monkeypatch, _Quadratic([20.0, 57.0, 150.0], np.diag([4.0, 1.0, 0.25])))
+    res = identifiers.max_likelihood(_Env([21.0, 55.0, 95.0], [15.0, 40.0, 70.0], [30.0, 70.0, 120.0]), 60,
+                                     grid_points=0)
+    assert res.freqs_radps[2] == 120.0
+    assert res.note.startswith("on the box edge (frequency 3)") and "converged" not in res.note.replace(
+        "not converged", ""), res.note
