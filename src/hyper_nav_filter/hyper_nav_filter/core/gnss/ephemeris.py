@@ -24,8 +24,8 @@ Frames: positions/velocities in the Earth-fixed frame of the system (WGS-84
 for GPS/QZSS, GTRF for Galileo, CGCS2000 for BDS; they agree at the cm level,
 ignored here).
 
-The RINEX navigation readers live in :mod:`.rinex_nav`; ``read_rinex2_nav``
-and ``read_rinex3_nav`` are re-exported here.
+The RINEX navigation readers live in :mod:`.rinex_nav` (which imports this
+module, not the other way round).
 """
 from __future__ import annotations
 
@@ -293,19 +293,6 @@ def select_ephemeris(ephs, sat_id: str, t_s: float, max_age_s: float | None = No
     best = min(cands, key=lambda e: abs(t_s - e.toe_s))
     lim = max_age_s if max_age_s is not None else MAX_AGE_S.get(best.system, 3600.0)
     return best if abs(t_s - best.toe_s) <= lim + 1e-6 else None
-
-
-# ----------------------------------------------------------------- RINEX readers
-def read_rinex2_nav(path):
-    """See :func:`.rinex_nav.read_rinex2_nav` (re-exported)."""
-    from .rinex_nav import read_rinex2_nav as _read
-    return _read(path)
-
-
-def read_rinex3_nav(path, systems=("G", "C")):
-    """See :func:`.rinex_nav.read_rinex3_nav` (re-exported)."""
-    from .rinex_nav import read_rinex3_nav as _read
-    return _read(path, systems)
 
 
 def shift_ephemeris(eph: BroadcastEphemeris, toe_new_s: float, secular: bool = True) -> BroadcastEphemeris:

@@ -10,9 +10,9 @@ elevation/azimuth, Klobuchar and Hopfield) live in
 uses too; they are re-exported here.
 """
 from hyper_nav_filter.core.gnss.ephemeris import (BDS_GEO_PRNS, C_MPS, BroadcastEphemeris, calendar_to_system_s,
-                                                  constants, gpst_s, read_rinex2_nav, read_rinex3_nav,
-                                                  satellite_position_ecef, select_ephemeris, shift_ephemeris,
-                                                  system_time_s)
+                                                  constants, gpst_s, satellite_position_ecef, select_ephemeris,
+                                                  shift_ephemeris, system_time_s)
+from hyper_nav_filter.core.gnss.rinex_nav import read_rinex2_nav, read_rinex3_nav
 from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
 from hyper_nav_filter.core.gnss.propagation import (CARRIER_HZ, F_B1I_HZ, F_L1_HZ, hopfield_delay_m,
                                                     klobuchar_delay_m)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core.gnss.ephemeris import read_rinex2_nav, read_rinex3_nav
+from hyper_nav_filter.core.gnss.rinex_nav import read_rinex2_nav, read_rinex3_nav
 from hyper_nav_filter.core.gnss.propagation import (KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT,
                                                     hopfield_delay_m, klobuchar_delay_m)
 from hyper_nav_sim.core.gnss import broadcast_error as be
