@@ -10,6 +10,7 @@ import pytest
 from hyper_nav_filter.core import earth
 from hyper_nav_sim.core.gnss import constellation as cs
 from hyper_nav_filter.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import rinex_nav
 
 _spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
 data = importlib.util.module_from_spec(_spec)
@@ -20,7 +21,7 @@ T_SCEN = ep.calendar_to_system_s("G", 2024, 6, 15, 3, 20, 0)   # 1.45 years afte
 
 @pytest.fixture(scope="module")
 def consts():
-    ephs, _ = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, _ = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     return ephs, cs.synthetic_constellation(ephs, T_SCEN)
 
 

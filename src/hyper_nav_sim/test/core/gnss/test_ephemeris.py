@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from hyper_nav_filter.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import rinex_nav
 
 _spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
 data = importlib.util.module_from_spec(_spec)
@@ -54,7 +55,7 @@ def test_gps_rinex2_vs_code_final():
     """2021-04-28 18-24 h GPST, 31 PRNs x 73 epochs (2261 points).
     Measured: 3D RMS 1.72 m, max 5.3 m; clock differences
     RMS over all 1.9 ns, max 8.2 ns."""
-    ephs, alpha, beta = ep.read_rinex2_nav(data.real_file(data.RINEX2))
+    ephs, alpha, beta = rinex_nav.read_rinex2_nav(data.real_file(data.RINEX2))
     assert len(ephs) == 105
     np.testing.assert_allclose(alpha, [0.9313e-8, 0.1490e-7, -0.5960e-7, -0.1192e-6])
     np.testing.assert_allclose(beta, [0.8806e5, 0.4915e5, -0.1311e6, -0.3277e6])
@@ -74,7 +75,7 @@ def test_gps_and_bds_rinex3_vs_gfz_rapid():
     per-satellite offset, i.e. broadcast vs precise GEO orbit datum, not a time error:
     a 14 s BDT/GPST slip would give 40 km on MEO). Clocks: GPS RMS 1.8 ns (max 6.8);
     BDS after TGD1 iono-free conversion: per-satellite means -16..+2 ns, max 16.6 ns."""
-    ephs, iono = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, iono = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     assert sum(e.system == "G" for e in ephs) == 66
     assert sum(e.system == "C" for e in ephs) == 129
     np.testing.assert_allclose(iono["G"][0], [2.0489e-08, 0.0, -5.9605e-08, 1.1921e-07])
@@ -102,7 +103,7 @@ def test_gps_and_bds_rinex3_vs_gfz_rapid():
 def test_velocity_and_drift_are_exact_derivatives(sat):
     """Analytic velocity / clock drift vs central differences (h = 0.5 s):
     agree to < 1e-5 m/s and < 1e-15 s/s (also for the GEO rotation transform)."""
-    ephs, _ = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, _ = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     eph = next(e for e in ephs if e.sat_id == sat)
     t = eph.toe_s + np.array([-1800.0, 0.0, 1234.5])
     h = 0.5
@@ -121,7 +122,7 @@ def test_time_scales_and_week_crossover():
     assert t_gpst == 2243 * 604800.0
     assert ep.system_time_s("C", t_gpst) == 887 * 604800.0 - 14.0
     assert ep.gpst_s("C", ep.system_time_s("C", t_gpst)) == t_gpst
-    ephs, _ = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, _ = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     e = next(x for x in ephs if x.system == "G" and x.toc_s < t_gpst)
     r, *_ = ep.satellite_position_ecef(e, t_gpst + np.array([-1.0, 0.0, 1.0]))
     acc = np.linalg.norm(r[2] - 2 * r[1] + r[0])
@@ -132,7 +133,7 @@ def test_shift_ephemeris_reproduces_orbit():
     """Re-referencing toe by +1.5 h (MEO) or by 2 sidereal days (GEO) leaves the
     orbit unchanged to < 1 mm and the clock to < 1e-15 s (harmonics excepted: none
     are re-expanded, so the test uses the same evaluation times)."""
-    ephs, _ = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, _ = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     for sat, dt in (("C20", 5400.0), ("G07", -3600.0), ("C01", 2 * 2 * np.pi / ep.OMEGA_E_BDS_RADPS)):
         e = next(x for x in ephs if x.sat_id == sat)
         e2 = ep.shift_ephemeris(e, e.toe_s + dt)

@@ -9,6 +9,7 @@ import pytest
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import rinex_nav
 from hyper_nav_sim.core.gnss import observables as ob
 from hyper_nav_sim.core.gnss.constellation import synthetic_constellation, visible_satellites
 from hyper_nav_sim.core.gnss.lock import LockConfig, LockModel, vehicle_doppler_hz
@@ -22,7 +23,7 @@ T_SCEN = ep.calendar_to_system_s("G", 2024, 3, 1, 4, 0, 0)
 
 
 def _run(speed_mps, heading_deg, cfg=None, duration_s=20.0):
-    ephs, _ = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, _ = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     syn = synthetic_constellation(ephs, T_SCEN)
     r0 = earth.geodetic_to_ecef(LAT, LON, 30e3)
     Cne = earth.C_n_e(LAT, LON)

@@ -10,6 +10,7 @@ import pytest
 from hyper_nav_filter.core import earth
 from hyper_nav_sim.core.gnss import constellation as cs
 from hyper_nav_filter.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import rinex_nav
 from hyper_nav_sim.core.gnss import nominal as nm
 
 _spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
@@ -131,7 +132,7 @@ def test_compare_with_real_template_constellation():
     constellation.py (GPS: all 31; BDS: the BDS-3 MEO/IGSO PRNs and the GEO
     C01..C05 present in the file). Measured: mean |diff| 1.3 (GPS) / 1.4 (BDS),
     max 4; test: mean <= 2, 90th percentile <= 3, max <= 5."""
-    tmpl, _ = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    tmpl, _ = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     t0 = nm.gpst_from_date("2023-01-01T01:00:00")
     keep = set(nm.BDS_MEO_PRNS) | set(nm.BDS_IGSO_PRNS) | set(nm.BDS_GEO_LON_DEG)
     real = [e for e in cs.synthetic_constellation(tmpl, t0) if e.system == "G" or e.prn in keep]

@@ -9,6 +9,7 @@ import pytest
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import rinex_nav
 from hyper_nav_sim.core.gnss import observables as ob
 from hyper_nav_sim.core.gnss.constellation import visible_satellites
 
@@ -23,7 +24,7 @@ V_E = earth.C_n_e(np.deg2rad(26.5), np.deg2rad(119.0)) @ np.array([1500.0, 800.0
 
 @pytest.fixture(scope="module")
 def vis():
-    ephs, iono = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, iono = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     cur = [ep.select_ephemeris(ephs, s, ep.system_time_s(s[0], T0)) for s in sorted({e.sat_id for e in ephs})]
     v = visible_satellites([e for e in cur if e is not None], R0, T0, 5.0)
     return v.ephs, iono

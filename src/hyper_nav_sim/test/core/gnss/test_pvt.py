@@ -9,6 +9,7 @@ import pytest
 
 from hyper_nav_filter.core import earth
 from hyper_nav_filter.core.gnss import ephemeris as ep
+from hyper_nav_filter.core.gnss import rinex_nav
 from hyper_nav_sim.core.gnss import observables as ob
 from hyper_nav_sim.core.gnss.constellation import visible_satellites
 from hyper_nav_sim.core.gnss.pvt import solve_pvt
@@ -25,7 +26,7 @@ V_E = earth.C_n_e(LAT, LON) @ np.array([1500.0, 800.0, 30.0])      # |v| = 1700 
 
 @pytest.fixture(scope="module")
 def sky():
-    ephs, iono = ep.read_rinex3_nav(data.real_file(data.RINEX3))
+    ephs, iono = rinex_nav.read_rinex3_nav(data.real_file(data.RINEX3))
     cur = [ep.select_ephemeris(ephs, s, ep.system_time_s(s[0], T0)) for s in sorted({e.sat_id for e in ephs})]
     return visible_satellites([e for e in cur if e is not None], R0, T0, 5.0).ephs, iono
 
