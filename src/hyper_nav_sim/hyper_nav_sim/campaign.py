@@ -22,6 +22,8 @@ No rclpy.
 """
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import dataclasses
 import importlib
 import json
@@ -79,13 +81,55 @@ def _timed(fn: Callable, job):
     return out, time.process_time() - t0
 
 
+def new_local_cluster(n_workers: int):
+    """The campaign's local cluster: ``n_workers`` single-threaded worker
+    processes bound to 127.0.0.1, no dashboard."""
+    from dask.distributed import LocalCluster
+    return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                        dashboard_address=None, silence_logs=40)
+
+
+@contextlib.contextmanager
+def local_cluster(n_workers: int, log: Callable = print):
+    """``with local_cluster(2) as cluster:`` a ``new_local_cluster`` closed
+    as ``run`` closes its own (a late worker reaping is reported, not raised)."""
+    cluster = new_local_cluster(n_workers)
+    try:
+        yield cluster
+    finally:
+        _close_cluster(cluster, log)
+
+
+def _close_cluster(cluster, log: Callable) -> None:
+    try:
+        cluster.close()
+    except (TimeoutError, asyncio.TimeoutError) as exc:   # noqa: B014 (distinct before 3.11)
+        log(f"campaign: local cluster shutdown timed out ({type(exc).__name__}); "
+            "its worker processes were killed, all results are in")
+
+
+def _shut_down(client, cluster, log: Callable) -> None:
+    """Close the client and a local cluster. Results are already in when this
+    runs, so a slow shutdown must not lose them: on a loaded machine a
+    nanny's worker process can take longer to be reaped after its SIGKILL
+    than dask's fixed 5 s nanny close allows (a CI run failed on that
+    ``TimeoutError`` after the campaign had finished). The timeout is
+    reported and the run's results are kept; the nanny has already killed
+    the worker."""
+    try:
+        client.close()
+    finally:
+        if cluster is not None:
+            _close_cluster(cluster, log)
+
+
 def run(label: str, fn: Callable, jobs: Sequence, keys: Sequence[str] | None = None, opts: Options = Options(),
         out_dir=None, to_json: Callable | None = None, warm_up: tuple = (), progress: bool = True,
         log: Callable = print) -> Result:
     """Run ``fn(job)`` for every job on dask (see the module docstring).
     ``out_dir``: each run's result as ``<out_dir>/<key>.json`` (through
     ``to_json``, default the result itself) as soon as it is in."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
     keys = list(keys) if keys is not None else [f"run{k:04d}" for k in range(len(jobs))]
     if len(keys) != len(jobs) or len(set(keys)) != len(keys):
         raise ValueError("campaign: one distinct key per job")
@@ -97,8 +141,7 @@ def run(label: str, fn: Callable, jobs: Sequence, keys: Sequence[str] | None = N
         client = Client(opts.scheduler)
     else:
         n = opts.workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=40)
+        cluster = new_local_cluster(n)
         client = Client(cluster)
     bar = Progress(label, total=len(jobs), unit="runs", sim=False, interval_s=5.0) if progress else None
     t0 = time.monotonic()
@@ -123,9 +166,7 @@ def run(label: str, fn: Callable, jobs: Sequence, keys: Sequence[str] | None = N
             if bar is not None:
                 bar.update(done)
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        _shut_down(client, cluster, log)
     wall = time.monotonic() - t0
     res = Result(results, n_workers, wall, 60.0 * len(jobs) / wall if wall > 0 else float("inf"), float(sum(cpu)))
     if bar is not None:

@@ -21,9 +21,8 @@ def short(tmp_path_factory):
 def test_same_numbers_on_one_and_two_workers(short, tmp_path):
     """One LocalCluster of two worker processes, reached as an existing
     cluster (--scheduler): the campaign on one of its workers, then on both."""
-    from dask.distributed import LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=40) as cluster:
+    from hyper_nav_sim.campaign import local_cluster
+    with local_cluster(2) as cluster:
         one = campaign(short.data, runs=4, scheduler=cluster.scheduler_address, max_workers=1)
         two = campaign(short.data, runs=4, scheduler=cluster.scheduler_address)
     assert one["workers"] == 1 and two["workers"] == 2
@@ -79,3 +78,39 @@ def test_a_map_matching_source_is_refused_by_name(tmp_path):
                                  "geomag": {"type": "horizontal_fix", "topic": "geomag/fix"}}
     with pytest.raises(ValueError, match="filter.sources.geomag"):
         montecarlo.run_one(data, 0)
+
+
+class _SlowToReap:
+    """A local cluster whose close times out the way dask's nanny does when a
+    killed worker process is reaped late (a loaded CI machine)."""
+    closed = False
+
+    def close(self):
+        self.closed = True
+        raise TimeoutError
+
+
+class _Client:
+    closed = False
+
+    def close(self):
+        self.closed = True
+
+
+def test_a_cluster_shutdown_timeout_after_the_results_is_reported_not_raised():
+    from hyper_nav_sim.campaign import _shut_down
+    lines: list[str] = []
+    client, cluster = _Client(), _SlowToReap()
+    _shut_down(client, cluster, lines.append)
+    assert client.closed and cluster.closed
+    assert len(lines) == 1 and "shutdown timed out" in lines[0] and "all results are in" in lines[0]
+
+
+def test_a_cluster_shutdown_error_that_is_not_a_timeout_still_raises():
+    from hyper_nav_sim.campaign import _shut_down
+
+    class Broken:
+        def close(self):
+            raise RuntimeError("scheduler gone")
+    with pytest.raises(RuntimeError, match="scheduler gone"):
+        _shut_down(_Client(), Broken(), print)
