@@ -11,8 +11,9 @@
 #     take the CPU the graphs leave idle.
 # Each lane and each worker has its own ROS domain (a block of six derived
 # from this shell's pid), so nothing crosses between lanes or with another
-# suite running on the machine. Extra arguments go to both pytest runs (e.g.
-# -k, --durations=20). Exit status: non-zero if either lane fails; the unit
+# suite running on the machine. Each lane ends with its slowest tests (wall)
+# and its top CPU consumers (conftest.py: CPU does not depend on the load).
+# Extra arguments go to both pytest runs (e.g. -k). Exit status: non-zero if either lane fails; the unit
 # lane's output follows the graph lane's.
 set -u
 cd "$(dirname "$0")/.."
@@ -20,12 +21,12 @@ cd "$(dirname "$0")/.."
 source tools/env.sh >/dev/null
 base=$(( 10 + ($$ % 35) * 6 ))
 unit_log="$(mktemp -d)/unit_tests.log"
-ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 python -m pytest -c pytest.ini -n 2 --dist loadgroup -m "not graph" "$@" \
+ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 python -m pytest -c pytest.ini -n 2 --dist loadgroup -m "not graph" --cpu-top 25 --durations 15 "$@" \
     > "$unit_log" 2>&1 &
 unit_pid=$!
 trap 'kill -- -$unit_pid 2>/dev/null; kill $unit_pid 2>/dev/null' INT TERM
 echo "[make test] node-graph tests one at a time; unit tests beside them (nice 19, 2 workers; output below when done)"
-ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph "$@"
+ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph --cpu-top 25 --durations 15 "$@"
 g=$?
 wait $unit_pid
 u=$?
