@@ -39,8 +39,10 @@ R(eps) = max(0, 1 - |eps|) (BPSK). Every coherent interval t_coh_s:
   sigma_tDLL above (a discriminator-level model, no early/late correlators).
 
 Lock detectors on 20 ms blocks of 1 ms samples: phase lock indicator
-cos(2 phi) ~ <NBD>/<NBP> (K&H 2nd ed. ch. 5, Van Dierendonck's NBD/NBP, filtered
-with time constant pli_tau_s; mode 2 above pli_on, back to 1 below pli_off), and
+cos(2 phi) ~ <NBD>/(<NBP> - 2M) (K&H 2nd ed. ch. 5, Van Dierendonck's NBD/NBP, filtered
+with time constant pli_tau_s; the noise term 2M of NBP, M = 20 unit-variance
+samples, is removed as a receiver does with its noise-floor estimate, else the
+indicator's bias rather than the phase error would set the threshold; mode 2 above pli_on, back to 1 below pli_off), and
 C/N0 from the narrow-/wide-band power ratio (NWPR, K&H 2nd ed. ch. 5; filtered
 mu = <NBP/WBP>, C/N0 = (mu - 1)/(M - mu)/T). A channel whose estimated C/N0 stays
 below cn0_drop_dbhz for drop_hold_s is declared lost (mode 0) and searches.
@@ -154,7 +156,7 @@ class LoopConfig:
     pilot channel assumed for t_coh_s > 20 ms is not needed: <= 20 ms here)."""
     t_coh_s: float = 0.001
     bn_pll_hz: float = 15.0
-    bn_fll_hz: float = 5.0
+    bn_fll_hz: float = 2.0
     bn_dll_hz: float = 1.0
     d_chips: float = 0.5
     carrier_hz: float = F_L1_HZ
@@ -171,13 +173,17 @@ class LoopConfig:
     acq_penalty_dwells: float = 10.0
     acq_doppler_bin_hz: float = 500.0
     acq_code_bin_chips: float = 0.5
+    nco_limit_hz: float = 0.0
 
     @classmethod
     def aided_default(cls) -> "LoopConfig":
         """Narrow loops behind INS aiding: PLL 3 Hz / 20 ms, FLL 1 Hz, DLL 0.1 Hz;
-        acquisition 20 ms coherent x 5 noncoherent, 25 Hz Doppler bins."""
+        acquisition 20 ms coherent x 5 noncoherent, 25 Hz Doppler bins; the
+        loop's correction to the aided NCO bounded to +-15 Hz (about 3 sigma of a
+        1.0 m/s line-of-sight velocity error: the aiding is trusted to its
+        covariance, so noise cannot drag the loop off the predicted Doppler)."""
         return cls(t_coh_s=0.02, bn_pll_hz=3.0, bn_fll_hz=1.0, bn_dll_hz=0.1, acq_t_coh_ms=20, acq_k_noncoh=5,
-                   acq_doppler_bin_hz=25.0)
+                   acq_doppler_bin_hz=25.0, pli_tau_s=0.5, nco_limit_hz=15.0)
 
     def validate(self):
         n = round(self.t_coh_s / DT_MS_S)
@@ -198,10 +204,11 @@ class LoopConfig:
         return self
 
     def acq_threshold(self) -> float:
-        """Threshold on the noncoherent sum sum_k |I_k + jQ_k|^2 (unit noise per
-        component, so 2 sum ~ chi^2(2K) under noise only) for acq_pfa per dwell."""
-        from scipy.stats import chi2
-        return 0.5 * chi2.isf(self.acq_pfa, 2 * self.acq_k_noncoh) * self.acq_t_coh_ms
+        """Threshold on the noncoherent sum S = sum_k |I_k + jQ_k|^2 of coherent
+        sums of n = acq_t_coh_ms unit-variance 1-ms samples: S / n ~ chi^2(2K)
+        under noise only, so thr = n chi2.isf(acq_pfa, 2K) (:mod:`.acquisition`)."""
+        from .acquisition import detection_threshold
+        return self.acq_t_coh_ms * detection_threshold(self.acq_pfa, self.acq_k_noncoh)
 
     def as_array(self) -> np.ndarray:
         self.validate()
@@ -224,11 +231,12 @@ class LoopConfig:
         p[P_ACQ_PEN] = self.acq_penalty_dwells
         p[P_ACQ_DBIN] = self.acq_doppler_bin_hz
         p[P_ACQ_CBIN] = self.acq_code_bin_chips
+        p[P_NCO_LIM] = self.nco_limit_hz
         return p
 
 
 (P_NCOH, P_W0P, P_W0F, P_KDLL, P_BN_DLL, P_D, P_RATIO, P_PLI_A, P_PLI_ON, P_PLI_OFF, P_CN0_A, P_DROP, P_HOLD,
- P_ACQ_NCOH, P_ACQ_K, P_ACQ_THR, P_ACQ_PEN, P_ACQ_DBIN, P_ACQ_CBIN, NP) = range(20)
+ P_ACQ_NCOH, P_ACQ_K, P_ACQ_THR, P_ACQ_PEN, P_ACQ_DBIN, P_ACQ_CBIN, P_NCO_LIM, NP) = range(21)
 
 MODE_SEARCH, MODE_FLL, MODE_PLL = 0, 1, 2
 # channel state columns
@@ -246,10 +254,11 @@ def new_state(n_ch: int, f0_hz, fdot0_hzps=0.0, q_cells=1.0, cn0_start_dbhz=45.0
     s[:, S_VEL] = 2 * np.pi * np.asarray(f0_hz, float)
     s[:, S_ACC] = 2 * np.pi * np.asarray(fdot0_hzps, float)
     s[:, S_Q] = np.maximum(1.0, np.ceil(q_cells))
-    s[:, S_NBD] = s[:, S_NBP] = 1.0
     s[:, S_CN0E] = cn0_start_dbhz
     m = 20.0
     a2 = 2e-3 * 10 ** (cn0_start_dbhz / 10)
+    s[:, S_NBD] = m * m * a2
+    s[:, S_NBP] = m * m * a2 + 2 * m
     s[:, S_MU] = (m * a2 + 2) / (a2 + 2)
     s[:, S_SEARCHT] = -1.0
     return s
@@ -331,7 +340,7 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                                 s[c, S_BW] = 0.0
                                 s[c, S_MSB] = 0.0
                                 s[c, S_NBD] = 0.0
-                                s[c, S_NBP] = 1.0
+                                s[c, S_NBP] = 40.0
                                 s[c, S_LOWT] = 0.0
                                 s[c, S_LOCKT] = 0.0
                                 s[c, S_NACQ] += 1.0
@@ -378,7 +387,8 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                 s[c, S_BQ] = 0.0
                 s[c, S_BW] = 0.0
                 s[c, S_MSB] = 0.0
-                pli = s[c, S_NBD] / max(s[c, S_NBP], 1e-12)
+                # noise-bias-corrected indicator: E[NBP] = M^2 a^2 + 2M (unit noise per component)
+                pli = s[c, S_NBD] / max(s[c, S_NBP] - 40.0, 0.25 * s[c, S_NBP])
                 if mode == 2 and pli < p[P_PLI_OFF]:
                     mode = 1
                 elif mode == 1 and pli > p[P_PLI_ON]:
@@ -419,6 +429,9 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                 wf = w0f if mode == 1 else 0.0
                 s[c, S_ACC] += tc * (w0p ** 3 * ep + wf * wf * ef)
                 s[c, S_VEL] += tc * (s[c, S_ACC] + 1.1 * w0p * w0p * ep + 1.414 * wf * ef)
+                lim = p[P_NCO_LIM]
+                if lim > 0.0:       # aided: correction to the predicted Doppler bounded (f_in is the residual)
+                    s[c, S_VEL] = min(max(s[c, S_VEL], -2.0 * math.pi * lim), 2.0 * math.pi * lim)
                 s[c, S_FNCO] = (s[c, S_VEL] + 2.4 * w0p * ep) / (2.0 * math.pi)
                 # carrier-aided DLL
                 cn0_eff = max(cn0 * _sinc(df * T) ** 2, 1e-6)
@@ -463,6 +476,20 @@ class ChannelBank:
     def set_search_cells(self, q_cells):
         """Dwells per sweep (used from the next search start)."""
         self.state[:, S_Q] = np.maximum(1.0, np.ceil(np.asarray(q_cells, float)))
+
+    def start_search(self, rng: np.random.Generator, channels=None):
+        """Declare loss of lock now on ``channels`` (all by default): the search
+        starts as in the kernel (true cell uniform in the sweep, residual
+        Doppler and code offsets uniform inside the cell)."""
+        s = self.state
+        idx = np.arange(s.shape[0]) if channels is None else np.asarray(channels)
+        u = rng.random((idx.size, 3))
+        s[idx, S_MODE] = MODE_SEARCH
+        for col in (S_CELL, S_DMS, S_DSTAT, S_DK, S_PEN, S_IC, S_QC, S_MSC, S_SEARCHT, S_LOCKT):
+            s[idx, col] = 0.0
+        s[idx, S_TRUE] = np.floor(u[:, 0] * s[idx, S_Q])
+        s[idx, S_FOFF] = (u[:, 1] - 0.5) * self.p[P_ACQ_DBIN]
+        s[idx, S_COFF] = (u[:, 2] - 0.5) * self.p[P_ACQ_CBIN]
 
     def run(self, f_in_hz, cn0_dbhz, rng: np.random.Generator, noise=None, unif=None) -> TrackOutput:
         f = np.ascontiguousarray(f_in_hz, float)
