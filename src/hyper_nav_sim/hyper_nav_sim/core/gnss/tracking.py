@@ -178,12 +178,14 @@ class LoopConfig:
     @classmethod
     def aided_default(cls) -> "LoopConfig":
         """Narrow loops behind INS aiding: PLL 3 Hz / 20 ms, FLL 1 Hz, DLL 0.1 Hz;
-        acquisition 20 ms coherent x 5 noncoherent, 25 Hz Doppler bins; the
+        acquisition 20 ms coherent x 5 noncoherent, 10 Hz Doppler bins (the
+        residual +-5 Hz stays inside the 20 ms FLL pull-in range +-1/(4T) = 12.5 Hz:
+        25 Hz bins false-locked at the range edge in a test); the
         loop's correction to the aided NCO bounded to +-15 Hz (about 3 sigma of a
         1.0 m/s line-of-sight velocity error: the aiding is trusted to its
         covariance, so noise cannot drag the loop off the predicted Doppler)."""
         return cls(t_coh_s=0.02, bn_pll_hz=3.0, bn_fll_hz=1.0, bn_dll_hz=0.1, acq_t_coh_ms=20, acq_k_noncoh=5,
-                   acq_doppler_bin_hz=25.0, pli_tau_s=0.5, nco_limit_hz=15.0)
+                   acq_doppler_bin_hz=10.0, pli_tau_s=0.5, nco_limit_hz=15.0)
 
     def validate(self):
         n = round(self.t_coh_s / DT_MS_S)

@@ -27,9 +27,9 @@ def test_search_windows_unaided_vs_aided():
     q_un = search_cells(hw, 511.5, 500.0, 0.5)
     assert q_un == 55 * 2046
     fd, cc = aided_halfwidths(0.5, 30.0, 3.0)                                             # 0.5 m/s, 30 m
-    q_ai = search_cells(fd, cc, 25.0, 0.5)
-    assert q_ai == 2                                    # +-7.9 Hz: 1 Doppler bin; +-0.31 chip: 2 code bins
-    assert q_un / q_ai > 5e4
+    q_ai = search_cells(fd, cc, 10.0, 0.5)
+    assert q_ai == 4                                    # +-7.9 Hz: 2 Doppler bins of 10 Hz; +-0.31 chip: 2 code bins
+    assert q_un / q_ai > 2e4
     with pytest.raises(ValueError, match="doppler_halfwidth_hz"):
         search_cells(np.nan, 1.0, 25.0, 0.5)
 
