@@ -164,7 +164,7 @@ class LoopConfig:
     pli_tau_s: float = 0.2
     pli_on: float = 0.6
     pli_off: float = 0.4
-    cn0_tau_s: float = 1.0
+    cn0_tau_s: float = 0.5
     cn0_drop_dbhz: float = 12.0
     drop_hold_s: float = 0.5
     acq_t_coh_ms: int = 1
@@ -346,6 +346,10 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                                 s[c, S_LOWT] = 0.0
                                 s[c, S_LOCKT] = 0.0
                                 s[c, S_NACQ] += 1.0
+                                # verification: the C/N0 estimate starts from noise only, so a false
+                                # alarm is dropped after drop_hold_s without ever reading as a signal
+                                s[c, S_MU] = 1.0
+                                s[c, S_CN0E] = -30.0
                             else:
                                 if hit:
                                     s[c, S_PEN] = p[P_ACQ_PEN] * p[P_ACQ_NCOH] * p[P_ACQ_K]
