@@ -140,11 +140,14 @@ def events(res, t_on, t_off_ramp_start, thr_up_dbhz):
         ev = {"cn0_at_phase_loss_dbhz": float(c[lost[0], i]) if lost.size else None,
               "cn0_at_drop_dbhz": float(c[drop[0], i]) if drop.size else None,
               "t_above_threshold_s": float(t[up[0]]) if up.size else None}
-        reac = None
+        reac = det = None
         if up.size:
             back = np.flatnonzero((t >= t[up[0]]) & (m[:, i] == 2))
             reac = float(t[back[0]] - t[up[0]]) if back.size else None
+            found = np.flatnonzero((t >= t[up[0]]) & (m[:, i] >= 1))
+            det = float(t[found[0]] - t[up[0]]) if found.size else None
         ev["reacquisition_s"] = reac
+        ev["detection_s"] = det
         ev["time_in_phase_lock_frac"] = float(np.mean(m[:, i] == 2))
         ev["time_in_track_frac"] = float(np.mean(m[:, i] >= 1))
         out.append(ev)
@@ -246,6 +249,7 @@ def main(argv=None) -> int:
         summary[k] = {"cn0_at_phase_loss_dbhz": _med([e["cn0_at_phase_loss_dbhz"] for e in ev]),
                       "cn0_at_drop_dbhz": _med([e["cn0_at_drop_dbhz"] for e in ev]),
                       "reacquisition_s": _med([e["reacquisition_s"] for e in ev]),
+                      "detection_s": _med([e["detection_s"] for e in ev]),
                       "not_reacquired": sum(e["reacquisition_s"] is None for e in ev),
                       "time_in_phase_lock_frac": _med([e["time_in_phase_lock_frac"] for e in ev]),
                       "time_in_track_frac": _med([e["time_in_track_frac"] for e in ev]),
@@ -267,7 +271,8 @@ def main(argv=None) -> int:
         s = summary[k]
         f = (lambda v: "n/a" if v is None else f"{v[0]:.2f} [p10 {v[1]:.2f}, p90 {v[2]:.2f}, n={v[3]}]")
         print(f"{k:8s}: C/N0 at phase-lock loss {f(s['cn0_at_phase_loss_dbhz'])} dB-Hz; at drop to search "
-              f"{f(s['cn0_at_drop_dbhz'])} dB-Hz; reacquisition after C/N0 > {x:.1f} dB-Hz {f(s['reacquisition_s'])} s "
+              f"{f(s['cn0_at_drop_dbhz'])} dB-Hz; after C/N0 > {x:.1f} dB-Hz: detection {f(s['detection_s'])} s, "
+              f"phase lock (reacquisition) {f(s['reacquisition_s'])} s "
               f"({s['not_reacquired']} not reacquired in the window); phase-lock time fraction "
               f"{f(s['time_in_phase_lock_frac'])}")
     print(f"rule-of-thumb PLL thresholds (no dynamics): unaided {rule['unaided']:.1f}, aided {rule['aided']:.1f} dB-Hz; "
