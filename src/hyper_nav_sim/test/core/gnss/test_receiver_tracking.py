@@ -64,3 +64,13 @@ def test_aided_regains_lock_sooner(traj):
     # Seeds 3-5 gave aided 38 s, unaided 42-43 s.
     assert first["aided"] <= 39.0
     assert first["unaided"] - first["aided"] >= 3.0
+
+
+def test_shipped_blackout_scenario_configures_an_aided_receiver():
+    from hyper_nav_sim.core import simulate
+    from hyper_nav_sim.core.scenario import load_scenario
+    rx = simulate.gnss_receiver(load_scenario("seed004_blackout"))
+    tc = rx.cfg.tracking
+    assert tc.mode == "aided" and tc.loop.t_coh_s == 0.02 and tc.loop.bn_pll_hz == 3.0
+    assert tc.signal.plasma.attenuation_db(140.0) == 50.0 and tc.signal.plasma.attenuation_db(60.0) == 0.0
+    assert rx.cfg.lock.outages == []
