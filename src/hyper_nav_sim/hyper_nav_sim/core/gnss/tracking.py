@@ -181,11 +181,14 @@ class LoopConfig:
         acquisition 20 ms coherent x 5 noncoherent, 10 Hz Doppler bins (the
         residual +-5 Hz stays inside the 20 ms FLL pull-in range +-1/(4T) = 12.5 Hz:
         25 Hz bins false-locked at the range edge in a test); the
-        loop's correction to the aided NCO bounded to +-15 Hz (about 3 sigma of a
-        1.0 m/s line-of-sight velocity error: the aiding is trusted to its
-        covariance, so noise cannot drag the loop off the predicted Doppler)."""
+        loop's correction to the aided NCO bounded to +-10 Hz (about 3 sigma of a
+        0.6 m/s line-of-sight velocity error: the aiding is trusted to its
+        covariance, so noise cannot drag the loop off the predicted Doppler).
+        The bound must stay inside the FLL's +-1/(4T) = 12.5 Hz: at 15 Hz a
+        channel detected at 16 dB-Hz was held beyond the FLL's range, where its
+        discriminator aliases, and stayed in FLL for the rest of the run."""
         return cls(t_coh_s=0.02, bn_pll_hz=3.0, bn_fll_hz=1.0, bn_dll_hz=0.1, acq_t_coh_ms=20, acq_k_noncoh=5,
-                   acq_doppler_bin_hz=10.0, pli_tau_s=0.5, nco_limit_hz=15.0)
+                   acq_doppler_bin_hz=10.0, pli_tau_s=0.5, nco_limit_hz=10.0)
 
     def validate(self):
         n = round(self.t_coh_s / DT_MS_S)
@@ -196,6 +199,9 @@ class LoopConfig:
             _pos(k, getattr(self, k))
         if not 0 < self.d_chips < 2:
             raise ValueError(f"d_chips: expected in (0, 2), got {self.d_chips!r}")
+        if self.nco_limit_hz < 0 or (self.nco_limit_hz > 0 and self.nco_limit_hz >= 0.25 / self.t_coh_s):
+            raise ValueError(f"nco_limit_hz: expected 0 (off) or inside the FLL range 1/(4 t_coh_s) = "
+                             f"{0.25 / self.t_coh_s:g} Hz, got {self.nco_limit_hz!r}")
         if not 0 < self.acq_pfa < 1:
             raise ValueError(f"acq_pfa: expected in (0, 1), got {self.acq_pfa!r}")
         if self.acq_t_coh_ms < 1 or self.acq_k_noncoh < 1:
