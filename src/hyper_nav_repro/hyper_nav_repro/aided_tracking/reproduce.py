@@ -222,7 +222,8 @@ def main(argv=None) -> int:
                                                    for k, v in blackout_profile(t_on, ramp, hold, depth).items()}))
     cn0 = np.stack([env.cn0_dbhz(t, geo["el"][k], geo["az"][k], geo["C_b_n"][k]) for k, t in enumerate(geo["t"])])
     print(f"[aided_tracking] {len(geo['sat_ids'])} satellites {geo['sat_ids']}, window {a.t0}-{a.t1} s, "
-          f"blackout on {t_on} s ramp {ramp} s hold {hold} s depth {depth} dB; geometry {time.process_time() - c0:.1f} s CPU",
+          f"blackout on {t_on} s ramp {ramp} s hold {hold} s depth {depth} dB; "
+          f"geometry {time.process_time() - c0:.1f} s CPU",
           flush=True)
     t_up = t_on + ramp + hold
     all_ev = {"unaided": [], "aided": []}
@@ -275,7 +276,8 @@ def main(argv=None) -> int:
               f"phase lock (reacquisition) {f(s['reacquisition_s'])} s "
               f"({s['not_reacquired']} not reacquired in the window); phase-lock time fraction "
               f"{f(s['time_in_phase_lock_frac'])}")
-    print(f"rule-of-thumb PLL thresholds (no dynamics): unaided {rule['unaided']:.1f}, aided {rule['aided']:.1f} dB-Hz; "
+    print(f"rule-of-thumb PLL thresholds (no dynamics): unaided {rule['unaided']:.1f}, "
+          f"aided {rule['aided']:.1f} dB-Hz; "
           f"simulated unaided - aided phase-loss C/N0: {margin if margin is None else round(margin, 2)} dB")
     print(f"tracking CPU {cpu_track:.1f} s for {doc['simulated_channel_s']:.0f} channel-seconds at 1 kHz")
     print(f"wrote {out / 'aided_tracking.json'} and {', '.join(str(p) for p in pngs)}")

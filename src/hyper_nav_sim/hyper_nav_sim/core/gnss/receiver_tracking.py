@@ -144,11 +144,12 @@ class ReceiverTracking:
             err = np.empty(len(sat_ids))
             for k, s in enumerate(sat_ids):
                 z = self.aid_z.get(s)
-                z = self.rng.standard_normal() if z is None else phi * z + np.sqrt(1 - phi * phi) * self.rng.standard_normal()
+                w = self.rng.standard_normal()
+                z = w if z is None else phi * z + np.sqrt(1 - phi * phi) * w
                 self.aid_z[s] = z
                 err[k] = s_v * z / lam[k]
             f_in, fd_in = -err, np.zeros_like(err)
-            fdw, ccw = acq.aided_halfwidths(np.hypot(s_v, 0.0), s_r, c.aiding_k_sigma)
+            fdw, ccw = acq.aided_halfwidths(s_v, s_r, c.aiding_k_sigma)
             self.bank.set_search_cells(acq.search_cells(fdw, ccw, c.loop.acq_doppler_bin_hz,
                                                         c.loop.acq_code_bin_chips))
         else:
