@@ -25,7 +25,10 @@ receivers run the same 1 kHz tracking simulation
 Reported (over ``--seeds`` noise seeds): C/N0 (truth) at which each channel
 loses phase lock and is dropped to search on the way into the blackout; time
 from the C/N0 rising back above the aided threshold to phase lock again
-(reacquisition), per receiver; time in track per satellite; JSON + PNGs.
+(reacquisition), per receiver; time in track per satellite; and, before the
+blackout, a synthetic vertical pull-up (``--pullup``: jerk up and down, added
+to the line-of-sight Doppler; the aided loops do not see it, the INS measures
+it): channels losing phase lock per receiver; JSON + PNGs.
 This is the receiver alone: closing the loop through the fusion node (the
 aiding taken from the filter's own covariance over DDS) is not done here.
 """
@@ -86,8 +89,18 @@ def blackout_profile(t_on, ramp_s, hold_s, depth_db):
             "att_db": [0.0, depth_db, depth_db, 0.0]}
 
 
+def pullup_velocity_mps(t_s, t_start, jerk_mps3, t_half_s):
+    """Vertical velocity change [m/s] of a synthetic pull-up: acceleration rising
+    at jerk_mps3 for t_half_s, falling back to 0 over t_half_s (peak
+    jerk * t_half), integrated."""
+    tau = np.clip(np.asarray(t_s, float) - t_start, 0.0, 2 * t_half_s)
+    up = np.minimum(tau, t_half_s)
+    dn = np.clip(tau - t_half_s, 0.0, t_half_s)
+    return jerk_mps3 * (0.5 * up ** 2 + t_half_s * dn - 0.5 * dn ** 2)
+
+
 def run_receiver(kind, geo, cn0_10hz, seed, t_black_on, sigma_v0_mps=0.05, sigma_a_mps2=1e-3,
-                 clk_drift_sigma_mps=0.05, tau_aid_s=20.0):
+                 clk_drift_sigma_mps=0.05, tau_aid_s=20.0, pullup=None):
     """One receiver over the window; returns per-ms (decimated to 100 Hz) mode,
     estimated C/N0 and per-ms truth C/N0 at 100 Hz."""
     from hyper_nav_sim.core.gnss import acquisition as acq
@@ -97,6 +110,9 @@ def run_receiver(kind, geo, cn0_10hz, seed, t_black_on, sigma_v0_mps=0.05, sigma
     n_ch = len(geo["sat_ids"])
     t_ms = np.arange(t10[0] + 1e-3, t10[-1] + 1e-9, 1e-3)
     f_true = CubicSpline(t10, geo["doppler_hz"], axis=0)(t_ms)
+    if pullup is not None:      # synthetic vertical manoeuvre on the line of sight (the INS measures it: aided unaffected)
+        u_up = np.stack([np.interp(t_ms, t10, geo["u_enu"][:, i, 2]) for i in range(n_ch)], axis=1)
+        f_true = f_true + u_up * pullup_velocity_mps(t_ms, *pullup)[:, None] / LAMBDA_M
     cn0 = np.stack([np.interp(t_ms, t10, cn0_10hz[:, i]) for i in range(n_ch)], axis=1)
     if kind == "unaided":
         cfg = LoopConfig(acq_k_noncoh=4)
@@ -209,6 +225,10 @@ def main(argv=None) -> int:
     ap.add_argument("--t1", type=float, default=240.0)
     ap.add_argument("--blackout", type=float, nargs=4, default=[90.0, 40.0, 20.0, 50.0],
                     metavar=("T_ON", "RAMP_S", "HOLD_S", "DEPTH_DB"))
+    ap.add_argument("--pullup", type=float, nargs=3, default=[70.0, 20.0 * G0, 0.5],
+                    metavar=("T_START", "JERK_MPS3", "T_HALF_S"),
+                    help="synthetic vertical pull-up before the blackout (default 20 g/s for 0.5 s up and down: "
+                         "peak 10 g)")
     ap.add_argument("--out", default="results/aided_tracking")
     a = ap.parse_args(argv)
     from hyper_nav_sim.core.gnss.signal_env import PlasmaSheath, SignalEnvironment
@@ -230,7 +250,8 @@ def main(argv=None) -> int:
     first = {}
     c1 = time.process_time()
     for seed in range(a.seeds):
-        runs = {k: run_receiver(k, geo, cn0, 1000 * seed + j, t_on) for j, k in enumerate(("unaided", "aided"))}
+        runs = {k: run_receiver(k, geo, cn0, 1000 * seed + j, t_on, pullup=tuple(a.pullup))
+                for j, k in enumerate(("unaided", "aided"))}
         if seed == 0:
             first = runs
         for k in runs:
@@ -241,6 +262,12 @@ def main(argv=None) -> int:
     thr_aided = _med([e["cn0_at_phase_loss_dbhz"] for e in loss["aided"]])
     thr_unaided = _med([e["cn0_at_phase_loss_dbhz"] for e in loss["unaided"]])
     x = thr_aided[0] if thr_aided else 20.0
+    t_p0, t_p1 = a.pullup[0], a.pullup[0] + 2 * a.pullup[2] + 1.0
+    pull = {}
+    for k in all_ev:
+        lost = [bool(np.any(r["mode"][(r["t"] >= t_p0) & (r["t"] < t_p1), i] < 2))
+                for r in all_ev[k] for i in range(len(geo["sat_ids"]))]
+        pull[k] = {"channels_losing_phase_lock": int(sum(lost)), "channels": len(lost)}
     summary = {}
     for k in all_ev:
         ev = [e for r in all_ev[k] for e in events(r, t_on, t_up, x)]
@@ -264,6 +291,8 @@ def main(argv=None) -> int:
            "rule_of_thumb_pll_threshold_dbhz": rule,
            "aided_threshold_used_for_reacquisition_dbhz": x,
            "unaided_minus_aided_phase_loss_cn0_db": margin,
+           "pullup": {"t_start_s": a.pullup[0], "jerk_mps3": a.pullup[1], "t_half_s": a.pullup[2],
+                      "peak_accel_mps2": a.pullup[1] * a.pullup[2], "window_s": [t_p0, t_p1], "results": pull},
            "tracking_cpu_s": cpu_track, "simulated_channel_s": 2 * a.seeds * len(geo["sat_ids"]) * (a.t1 - a.t0),
            "results": summary}
     (out / "aided_tracking.json").write_text(json.dumps(doc, indent=1))
@@ -279,6 +308,9 @@ def main(argv=None) -> int:
     print(f"rule-of-thumb PLL thresholds (no dynamics): unaided {rule['unaided']:.1f}, "
           f"aided {rule['aided']:.1f} dB-Hz; "
           f"simulated unaided - aided phase-loss C/N0: {margin if margin is None else round(margin, 2)} dB")
+    print(f"pull-up {a.pullup[1] / G0:.0f} g/s to {a.pullup[1] * a.pullup[2] / G0:.0f} g at {a.pullup[0]} s: channels "
+          f"losing phase lock unaided {pull['unaided']['channels_losing_phase_lock']}/{pull['unaided']['channels']}, "
+          f"aided {pull['aided']['channels_losing_phase_lock']}/{pull['aided']['channels']}")
     print(f"tracking CPU {cpu_track:.1f} s for {doc['simulated_channel_s']:.0f} channel-seconds at 1 kHz")
     print(f"wrote {out / 'aided_tracking.json'} and {', '.join(str(p) for p in pngs)}")
     return 0

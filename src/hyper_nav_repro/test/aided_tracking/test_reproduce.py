@@ -10,6 +10,7 @@ from hyper_nav_repro.aided_tracking.reproduce import main
 
 def test_short_run_writes_results(tmp_path):
     assert main(["--seeds", "1", "--t0", "80", "--t1", "190", "--blackout", "90", "30", "10", "50",
+                 "--pullup", "82", str(20 * 9.80665), "0.5",
                  "--out", str(tmp_path)]) == 0
     doc = json.loads((tmp_path / "aided_tracking.json").read_text())
     for png in ("aided_tracking_lock.png", "aided_tracking_reacquisition.png"):
@@ -20,3 +21,7 @@ def test_short_run_writes_results(tmp_path):
     # median C/N0 at the loss of phase lock: unaided >= 8 dB above aided (10 seeds of the full run: 11.3 dB)
     assert doc["unaided_minus_aided_phase_loss_cn0_db"] >= 8.0
     assert r["aided"]["reacquisition_s"][0] < r["unaided"]["reacquisition_s"][0]
+    # the default pull-up (20 g/s, peak 10 g at 85 s here): the unaided 15 Hz loop loses phase lock on
+    # some channels, the aided loops none (theta_e3 = 53 deg x |u_up| vs ~0)
+    pu = doc["pullup"]["results"]
+    assert pu["unaided"]["channels_losing_phase_lock"] >= 1 and pu["aided"]["channels_losing_phase_lock"] == 0
