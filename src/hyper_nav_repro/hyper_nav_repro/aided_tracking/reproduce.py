@@ -268,9 +268,13 @@ def main(argv=None) -> int:
         lost = [bool(np.any(r["mode"][(r["t"] >= t_p0) & (r["t"] < t_p1), i] < 2))
                 for r in all_ev[k] for i in range(len(geo["sat_ids"]))]
         pull[k] = {"channels_losing_phase_lock": int(sum(lost)), "channels": len(lost)}
+    rule = {"unaided": pll_threshold_dbhz(15.0, 1e-3), "aided": pll_threshold_dbhz(3.0, 0.02)}
     summary = {}
     for k in all_ev:
         ev = [e for r in all_ev[k] for e in events(r, t_on, t_up, x)]
+        ev_rule = [e for r in all_ev[k] for e in events(r, t_on, t_up, rule["aided"])]
+        for e, er in zip(ev, ev_rule):
+            e["reacquisition_after_rule_threshold_s"] = er["reacquisition_s"]
         for j, e in enumerate(ev):
             e["sat_id"] = geo["sat_ids"][j % len(geo["sat_ids"])]
             e["seed"] = j // len(geo["sat_ids"])
@@ -278,11 +282,12 @@ def main(argv=None) -> int:
                       "cn0_at_drop_dbhz": _med([e["cn0_at_drop_dbhz"] for e in ev]),
                       "reacquisition_s": _med([e["reacquisition_s"] for e in ev]),
                       "detection_s": _med([e["detection_s"] for e in ev]),
+                      "reacquisition_after_rule_threshold_s": _med([e["reacquisition_after_rule_threshold_s"]
+                                                                    for e in ev]),
                       "not_reacquired": sum(e["reacquisition_s"] is None for e in ev),
                       "time_in_phase_lock_frac": _med([e["time_in_phase_lock_frac"] for e in ev]),
                       "time_in_track_frac": _med([e["time_in_track_frac"] for e in ev]),
                       "events": ev}
-    rule = {"unaided": pll_threshold_dbhz(15.0, 1e-3), "aided": pll_threshold_dbhz(3.0, 0.02)}
     margin = (summary["unaided"]["cn0_at_phase_loss_dbhz"][0] - summary["aided"]["cn0_at_phase_loss_dbhz"][0]
               if summary["unaided"]["cn0_at_phase_loss_dbhz"] and summary["aided"]["cn0_at_phase_loss_dbhz"] else None)
     doc = {"issue": 23, "scenario": "seed004", "window_s": [a.t0, a.t1], "satellites": geo["sat_ids"],
@@ -306,7 +311,9 @@ def main(argv=None) -> int:
               f"({s['not_reacquired']} not reacquired in the window); phase-lock time fraction "
               f"{f(s['time_in_phase_lock_frac'])}")
     print(f"rule-of-thumb PLL thresholds (no dynamics): unaided {rule['unaided']:.1f}, "
-          f"aided {rule['aided']:.1f} dB-Hz; "
+          f"aided {rule['aided']:.1f} dB-Hz; phase lock after C/N0 > the aided rule threshold: unaided "
+          f"{summary['unaided']['reacquisition_after_rule_threshold_s'][0]:.2f} s, aided "
+          f"{summary['aided']['reacquisition_after_rule_threshold_s'][0]:.2f} s (medians); "
           f"simulated unaided - aided phase-loss C/N0: {margin if margin is None else round(margin, 2)} dB")
     print(f"pull-up {a.pullup[1] / G0:.0f} g/s to {a.pullup[1] * a.pullup[2] / G0:.0f} g at {a.pullup[0]} s: channels "
           f"losing phase lock unaided {pull['unaided']['channels_losing_phase_lock']}/{pull['unaided']['channels']}, "
