@@ -25,6 +25,8 @@ setup(
         "repro_seed004 = hyper_nav_repro.seed004.reproduce:main",
         # seed 004's tightly coupled covariance with and without range-bias states (issue 20)
         "tc_consistency = hyper_nav_repro.seed004.tc_consistency:main",
+        # issue 23: unaided vs INS-aided receiver tracking through a plasma blackout
+        "repro_aided_tracking = hyper_nav_repro.aided_tracking.reproduce:main",
         # seed 002's L-EKF parameter set (make train-lekf)
         "train_lekf = hyper_nav_repro.seed002.train_lekf:main",
     ]},

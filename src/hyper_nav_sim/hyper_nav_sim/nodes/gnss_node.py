@@ -92,6 +92,9 @@ class GnssNode(ClockDrivenSensor):
                           ("elevation_rad", e.elevation_rad), ("azimuth_rad", e.azimuth_rad)):
             setattr(m, name, [float(x) for x in arr])
         m.locked = [bool(x) for x in e.locked]
+        if e.lock_time_s is not None:          # tracking option: per-channel receiver outputs
+            m.lock_time_s = [float(x) for x in e.lock_time_s]
+            m.tracking_flags = [int(x) for x in e.tracking_flags]
         return m
 
     def _eph_msg(self, eph, t_s):

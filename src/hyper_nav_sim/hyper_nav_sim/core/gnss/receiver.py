@@ -19,6 +19,12 @@ Configuration is the ``gnss:`` block of a scenario YAML (plain dict), see
    world, independent ones in the realistic world) and (with an rng) noise.
 4. Lock (:class:`.lock.LockModel`): vehicle-induced Doppler u.v_a/lambda and its
    rate (u_dot.v_a + u.a_a)/lambda from the truth motion; scripted outages.
+   With the ``tracking:`` block (off by default) lock is instead the outcome
+   of the 1 kHz tracking simulation (:mod:`.receiver_tracking`): C/N0 from the
+   signal environment (antenna pattern on the truth attitude, plasma sheath),
+   loops unaided or aided; the loops' code and Doppler errors are added to the
+   measurements, C/N0 is the receiver's estimate, lock time and tracking flags
+   are reported.
 5. PVT (:func:`.pvt.solve_pvt`) from the locked satellites, corrected with the
    same broadcast iono/tropo models, when at least 4 (+1 per further system)
    are locked; else ``None``.
@@ -50,7 +56,7 @@ EPHEMERIS_BLOCK_S = 7200.0
 _TOP_FIELDS = {"systems", "start_gpst_s", "rate_hz", "elevation_mask_deg", "pseudorange_sigma_m",
                "pseudorange_rate_sigma_mps", "clock", "ionosphere", "troposphere", "lock",
                "antenna_lever_arm_b_m", "klobuchar_alpha", "klobuchar_beta", "ionosphere_truth_scale",
-               "cn0_zenith_dbhz", "cn0_horizon_dbhz", "ephemeris_seed", "gps_spares"}
+               "cn0_zenith_dbhz", "cn0_horizon_dbhz", "ephemeris_seed", "gps_spares", "tracking"}
 _CLOCK_FIELDS = {"h0", "h_m2", "bias_m", "drift_mps"}
 _LOCK_FIELDS = {"doppler_limit_hz", "doppler_reference", "loop_bandwidth_hz", "phase_error_limit_deg",
                 "reacquisition_s", "outages", "sat_outages"}
@@ -112,6 +118,7 @@ class GnssReceiverConfig:
     cn0_horizon_dbhz: float = 36.0
     ephemeris_seed: int = 0
     gps_spares: int = 4
+    tracking: object = None           # :class:`.receiver_tracking.TrackingConfig` or None (off)
 
     @classmethod
     def from_dict(cls, d: dict | None) -> "GnssReceiverConfig":
@@ -191,6 +198,11 @@ class GnssReceiverConfig:
             c.ephemeris_seed = int(_num("ephemeris_seed", d["ephemeris_seed"], 0.0))
         if "gps_spares" in d:
             c.gps_spares = int(_num("gps_spares", d["gps_spares"], 0.0, 4.0))
+        if d.get("tracking") is not None:
+            from .receiver_tracking import TrackingConfig
+            if not isinstance(d["tracking"], dict):
+                raise ValueError(f"gnss.tracking: expected a mapping, got {d['tracking']!r}")
+            c.tracking = TrackingConfig.from_dict(d["tracking"])
         return c
 
 
@@ -248,6 +260,10 @@ class GnssEpoch:
     fix: GnssFix | None
     iono_true_m: np.ndarray | None = None     # delays the signals went through (the world)
     tropo_true_m: np.ndarray | None = None
+    # with the tracking option (gnss.tracking): what the receiver reports per channel
+    lock_time_s: np.ndarray | None = None     # continuous carrier-lock time [s]
+    tracking_flags: np.ndarray | None = None  # GnssMeasurements.TRACK_* bits
+    cn0_true_dbhz: np.ndarray | None = None   # signal environment truth (cn0_dbhz is the estimate)
 
     def raw(self) -> RawGnssEpoch:
         """What the receiver outputs at this epoch (the content of ``gnss/raw``)
@@ -347,6 +363,13 @@ class GnssReceiverSim:
         r_a, v_a, a_a = self.antenna_truth(trajectory, t_ep)
         clk_b, clk_d = _sample_clock(c, t_ep, rng)
         lock = LockModel(c.lock)
+        trk = None
+        if c.tracking is not None:
+            from hyper_nav_filter.core import atmosphere
+            from .receiver_tracking import ReceiverTracking
+            trk = ReceiverTracking(c.tracking, rng)
+            tr_all = trajectory.truth(t_ep)
+            mach_all = np.linalg.norm(tr_all.vel_enu_mps, axis=1) / atmosphere.speed_of_sound_mps(tr_all.alt_m)
         iono_model = self.broadcast_ionosphere()
         sig_fn = (pr_sigma_m if c.pseudorange_sigma_m == "elevation"
                   else (lambda el: np.full(np.shape(el), float(c.pseudorange_sigma_m))))
@@ -384,11 +407,28 @@ class GnssReceiverSim:
                 fd_veh = u @ v_a[k] / lam
                 fd_veh_rate = (np.einsum("ki,i->k", u_dot, v_a[k]) + u @ a_a[k]) / lam
                 fd_lock = fd_veh if c.lock.doppler_reference == "vehicle" else -obs.geometric_rate_mps / lam
-                locked = lock.update(float(t), sat_ids, fd_lock, fd_veh_rate)
                 el = obs.el_rad
-                cn0 = c.cn0_horizon_dbhz + (c.cn0_zenith_dbhz - c.cn0_horizon_dbhz) * np.sin(np.maximum(el, 0.0))
+                te = None
+                if trk is None:
+                    locked = lock.update(float(t), sat_ids, fd_lock, fd_veh_rate)
+                    cn0 = c.cn0_horizon_dbhz + (c.cn0_zenith_dbhz - c.cn0_horizon_dbhz) * np.sin(np.maximum(el, 0.0))
+                else:
+                    # lock from the 1 kHz tracking simulation (satellite Doppler rate, < 1 Hz/s, left out)
+                    te = trk.step(float(t), sat_ids, obs.doppler_hz, fd_veh_rate, el, obs.az_rad,
+                                  tr_all.C_b_n[k], tr_all.alt_m[k], mach_all[k], obs.carrier_hz)
+                    locked = te.valid
+                    cn0 = te.cn0_est_dbhz
+                    # measurement errors of the loops: code error x chip length, Doppler error x lambda
+                    from .acquisition import CHIP_LENGTH_CA_M
+                    from .tracking import dll_thermal_sigma_chips
+                    pr = pr + te.code_err_chips * CHIP_LENGTH_CA_M
+                    obs.pseudorange_rate_mps = obs.pseudorange_rate_mps + te.freq_err_hz * lam
+                    s_dll = dll_thermal_sigma_chips(np.nan_to_num(cn0, nan=0.0), c.tracking.loop.bn_dll_hz,
+                                                    c.tracking.loop.t_coh_s, c.tracking.loop.d_chips) * CHIP_LENGTH_CA_M
+                    obs.pr_sigma_m = np.hypot(obs.pr_sigma_m, s_dll)
             else:
                 obs = None
+                te = None
                 locked = np.zeros(0, bool)
             fix = None
             need = 3 + len({e.system for e, l in zip(ephs, locked) if l})
@@ -405,6 +445,8 @@ class GnssReceiverSim:
                               P, Cne.T @ P @ Cne, Pv, Cne.T @ Pv @ Cne, sol.clk_bias_m, sol.clk_drift_mps,
                               sol.isb_m, sol.dop, int(idx.size), [sat_ids[i] for i in idx])
                 r_prev, v_prev, t_prev = sol.r_e_m, sol.v_e_mps, t
+            if trk is not None:
+                trk.note_fix(float(t), fix is not None)
             z = np.zeros(0)
             out.append(GnssEpoch(
                 float(t), t_g, t_g + clk_b[k] / C_MPS, sat_ids, [e.system for e in ephs],
@@ -414,7 +456,9 @@ class GnssReceiverSim:
                 locked, obs.pr_sigma_m if n else z, obs.rate_sigma_mps if n else z,
                 obs.iono_m if n else z, obs.tropo_m if n else z, fd_veh if n else z, fd_veh_rate if n else z,
                 obs.geometric_rate_mps if n else z, ephs, eset, float(clk_b[k]), float(clk_d[k]),
-                r_a[k], v_a[k], fix, obs.iono_true_m if n else z, obs.tropo_true_m if n else z))
+                r_a[k], v_a[k], fix, obs.iono_true_m if n else z, obs.tropo_true_m if n else z,
+                None if te is None else te.lock_time_s, None if te is None else te.tracking_flags,
+                None if te is None else te.cn0_true_dbhz))
         return out
 
 
