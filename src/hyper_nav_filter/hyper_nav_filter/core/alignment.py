@@ -96,7 +96,7 @@ class Alignment:
 
     def config_fields(self) -> dict:
         """``filter.config`` prior sigmas from the alignment (core.blocks units)."""
-        return {"init_att_sigma_deg": [float(x) for x in np.degrees(self.att_sigma_enu_rad)],
+        return {"init_att_sigma_arcmin": [float(x) for x in np.degrees(self.att_sigma_enu_rad) * 60.0],
                 "init_vel_sigma_mps": [float(max(x, 1e-3)) for x in self.vel_sigma_enu_mps],
                 "init_gyro_bias_sigma_deg_per_hr": [float(x) for x in np.degrees(self.gyro_bias_sigma_radps) * 3600]}
 
