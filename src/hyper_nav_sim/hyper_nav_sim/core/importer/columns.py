@@ -197,7 +197,7 @@ def _time(data, spec, where) -> np.ndarray:
     t = _cols(data, f, 1, f"{where}.time") * _unit(TIME_UNITS, f.get("unit", "s"), f"{where}.time")
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
-        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} ({t[k]!r} -> {t[k + 1]!r})")
+        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} ({float(t[k])!r} -> {float(t[k + 1])!r})")
     return t
 
 
@@ -245,7 +245,7 @@ def _imu_time(data, spec, where):
         raise ConfigError(f"{where}.max_gap_s: expected a positive number (s), got {max_gap!r}")
     if not np.all(np.isfinite(t)):
         k = int(np.argmax(~np.isfinite(t)))
-        raise ConfigError(f"{where}.time: not a finite stamp at data row {k + 1} ({t[k]!r})")
+        raise ConfigError(f"{where}.time: not a finite stamp at data row {k + 1} ({float(t[k])!r})")
     dt = np.diff(t)
     same = dt == 0
     dup = np.zeros(len(t), bool)
@@ -253,16 +253,16 @@ def _imu_time(data, spec, where):
         if np.array_equal(data[k + 1], data[k]):
             dup[k + 1] = True
         else:
-            raise ConfigError(f"{where}.time: stamp {t[k]!r} repeated at data rows {k + 1} and {k + 2} with "
+            raise ConfigError(f"{where}.time: stamp {float(t[k])!r} repeated at data rows {k + 1} and {k + 2} with "
                               "different samples (a logged duplicate repeats the whole row)")
     if np.any(dt < 0):
         k = int(np.argmax(dt < 0))
-        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} (time reversal {t[k]!r} -> {t[k + 1]!r}, "
+        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} (time reversal {float(t[k])!r} -> {float(t[k + 1])!r}, "
                           f"{dt[k]:.6g} s)")
     if np.any(dt > max_gap):
         k = int(np.argmax(dt > max_gap))
         raise ConfigError(f"{where}.time: gap of {dt[k]:.3f} s between data rows {k + 1} and {k + 2} (t = "
-                          f"{t[k]!r}); longer than {where}.max_gap_s = {max_gap:g} s: split the file or raise it")
+                          f"{float(t[k])!r}); longer than {where}.max_gap_s = {max_gap:g} s: split the file or raise it")
     keep = ~dup
     return t[keep], keep, tuple(int(k) + 1 for k in np.flatnonzero(dup))
 
