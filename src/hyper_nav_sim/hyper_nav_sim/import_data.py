@@ -42,6 +42,23 @@ written. The default sources of these presets: ``imu/data_raw`` (imu) and
 ``gnss/raw`` (gnss_raw, tightly coupled).
 The first IMU record only starts the time line (its interval is unknown);
 the initial state is at its epoch unless ``initial_state.t_s`` says otherwise.
+
+No attitude in ``filter.initial_state`` (and no truth file): the filter
+aligns on the data (``hyper_nav_filter.core.alignment``): levelling on the
+first ``alignment.window_s`` seconds, heading by gyrocompassing where the
+IMU grade (the filter block's bias sigmas) allows, else from the first GNSS
+velocity above ``alignment.speed_threshold_mps`` (receiver presets: this
+project's single-point position + Doppler velocity; fix files: their velocity
+columns); the IMU table then starts at the alignment epoch, and the
+alignment's sigmas become ``init_att_sigma_arcmin``, ``init_vel_sigma_mps``
+(and the gyro bias prior when it was estimated on a static window). Fields
+given explicitly win. Optional ``alignment:`` block: ``window_s`` (5),
+``speed_threshold_mps`` (1), ``static_speed_mps`` (0.3),
+``max_gyrocompass_sigma_deg`` (3), ``course_sigma_deg`` (0). The IMU block's
+``mounting`` and ``antenna_lever_arm_m`` (core/importer/columns.py) are
+applied in the importer; the lever arm becomes ``antenna_lever_arm_b_m``
+unless the filter block sets it. ``{real_data}`` in a file path is the
+shared recordings folder (``spp.default_data_dir``).
 """
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ DATA = pathlib.Path(default_data_dir()) / "walk_0827"
 pytestmark = pytest.mark.skipif(not (DATA / "imu_1730_sf.csv").exists(), reason="shared walk_0827 data not found")
 
 
-@pytest.mark.slow          # ~20 s: SPP of the first 35 s of the log, the import and three filter runs
+@pytest.mark.slow          # ~20 s: SPP of the first 35 s of the log, the import, the TC and LC runs
 def test_walk_segment_tightly_coupled_beats_single_point(tmp_path):
     res = repro_walk.reproduce(tmp_path, end_s=20.0, outages=False, plots=False)
     a = res["alignment"]
