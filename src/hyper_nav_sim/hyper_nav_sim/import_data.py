@@ -299,6 +299,9 @@ def _apply_alignment(al, filt: dict, init: dict) -> dict:
                                                               PARAM_BY_NAME["init_gyro_bias_sigma_deg_per_hr"].aliases]:
             cfg.pop(name, None)
         cfg["init_gyro_bias_sigma_deg_per_hr"] = al.config_fields()["init_gyro_bias_sigma_deg_per_hr"]
+    if "t_s" in init and abs(float(init["t_s"]) - al.t_s) > 1e-6:
+        raise ConfigError(f"filter.initial_state.t_s: given ({init['t_s']}) without an attitude, but the alignment "
+                          f"holds at {al.t_s!r}: give the attitude too, or leave t_s out")
     out = dict(init)
     for k, v in al.initial_state_fields().items():
         if not ({k} | {a.name for a in INIT_BY_NAME[k].aliases}) & set(init):

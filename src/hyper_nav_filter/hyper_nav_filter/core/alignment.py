@@ -31,7 +31,11 @@ Method (which one is used is reported in ``Alignment.method``):
      heading in the carried frame (the body moves forward: a vehicle, or a
      handheld unit pointed where the walker goes; ``course_sigma_deg`` is
      the declared spread of that assumption). The filter starts there, at
-     that IMU epoch, with the GNSS velocity.
+     that IMU epoch, with the GNSS velocity. A window in motion is levelled
+     to the direction of the specific force the GNSS velocities predict,
+     dv/dt + (2 w_ie + w_en) x v - g (Groves eq. 5.54), not to the vertical:
+     at 1700 m/s the Coriolis and transport terms tilt it by ~0.1 deg and
+     any acceleration by a / g.
 
 Initial 1-sigma from the alignment's own residuals: the standard error of
 each mean is taken from the scatter of ``n_blocks`` block means (vibration
@@ -130,6 +134,15 @@ def _heading_in(C_b_h) -> float:
     return math.atan2(x[0], x[1])
 
 
+def _rotation_between(a, b) -> np.ndarray:
+    """The smallest rotation taking unit vector a to unit vector b (Rodrigues)."""
+    v = np.cross(a, b)
+    s, c = float(np.linalg.norm(v)), float(a @ b)
+    if s < 1e-15:
+        return np.eye(3)
+    return rotvec_to_C(v / s * math.atan2(s, c))
+
+
 def _Rz_heading(dpsi_rad: float) -> np.ndarray:
     """Rotation of ENU about up that adds ``dpsi_rad`` to every heading (clockwise)."""
     c, s = math.cos(dpsi_rad), math.sin(dpsi_rad)
@@ -217,13 +230,29 @@ def align(t_s, omega_b_radps, f_b_mps2, lat_rad: float, alt_m: float, grade: Imu
     for kk, h in enumerate(dt):
         C = C @ rotvec_to_C((w[k_end + 1 + kk] - bg) * h)
     carried_s = float(t[k_g] - t[k_end])
+    # in motion the mean specific force is not the reaction to gravity alone: f_n = dv/dt + (2 w_ie + w_en) x v - g
+    # (Groves eq. 5.54 with the GNSS velocities of the window); level to its direction instead of the vertical
+    tilt_fix, s_acc = None, 0.0
+    in_win = (gv >= t[0] - 1e-9) & (gv <= t[k_end] + 1e-9)
+    if not static and in_win.sum() >= 2:
+        tw, vw = gv[in_win], vel[in_win]
+        a_n = (vw[-1] - vw[0]) / (tw[-1] - tw[0])
+        v_m = vw.mean(axis=0)
+        f_n = a_n + np.cross(2 * earth.omega_ie_n(lat_rad) + earth.omega_en_n(lat_rad, alt_m, v_m), v_m) \
+            - earth.gravity_n(lat_rad, alt_m)
+        tilt_fix = _rotation_between(np.array([0.0, 0.0, 1.0]), f_n / np.linalg.norm(f_n))
+        s_acc = math.sqrt(2.0) * float(np.max(vs[in_win, :2])) / (tw[-1] - tw[0])
+        info["window_f_n_mps2"] = f_n.tolist()
     s_carry = math.hypot(float(np.max(s_bg)) * carried_s, grade.gyro_arw_radps_per_sqrt_hz * math.sqrt(carried_s))
     course = math.atan2(vel[j, 0], vel[j, 1])
     heading_h = _heading_in(C)
     C_b_n = _Rz_heading(course - heading_h) @ C
+    if tilt_fix is not None:
+        C_b_n = tilt_fix @ C_b_n
+        C_b_n = _Rz_heading(course - _heading_in(C_b_n)) @ C_b_n     # the tilt moved the heading a little
     s_course = float(np.hypot(vs[j, 0], vs[j, 1])) / math.sqrt(2.0) / speed[j]
     s_heading = math.sqrt(s_course**2 + math.radians(course_sigma_deg) ** 2 + s_carry**2)
-    s_tilt_g = math.hypot(s_tilt, s_carry)
+    s_tilt_g = math.sqrt(s_tilt**2 + s_carry**2 + (s_acc / g_mps2) ** 2)
     info.update({"gnss_epoch_s": float(gv[j]), "speed_mps": float(speed[j]), "carried_s": carried_s,
                  "course_deg": math.degrees(course) % 360})
     return Alignment(float(t[k_g]), C_b_n, vel[j].copy(), np.array([s_tilt_g, s_tilt_g, s_heading]),

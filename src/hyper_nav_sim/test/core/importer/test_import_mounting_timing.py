@@ -168,3 +168,40 @@ def test_bad_imu_files_fail_naming_the_field(tmp_path):
         columns.imu_table({**_spec(tmp_path, good), "max_gap_s": "long"}, tmp_path)
     with pytest.raises(ConfigError, match=r"imu.antenna_lever_arm_m: expected 3 numbers"):
         columns.imu_table({**_spec(tmp_path, good), "antenna_lever_arm_m": [0, 1]}, tmp_path)
+
+
+# ---------------------------------------------------------------- alignment in the importer
+def test_import_without_initial_attitude_aligns_on_the_gnss_velocity(tmp_path):
+    """The simulated flight as KF-GINS files with no truth and no initial
+    state: the importer aligns (levelling + course from the GNSS velocity
+    columns, the body flies along its x axis) and starts the filter at the
+    alignment epoch; its attitude against the simulator's truth there lies
+    inside 3 x the alignment's own sigma. An explicit t_s without an
+    attitude is refused."""
+    import yaml
+    from hyper_nav_filter.core.attitude import quat_xyzw_to_C
+    sc = apply_overrides(load_scenario("default"), {"duration_s": 8.0}, tmp_path)
+    _, _, tr = write_kfgins_set(sc, tmp_path)
+    fb = filter_block_of(sc)
+    t0 = fb["initial_state"]["t_s"]
+    fb["initial_state"] = {}
+    for k in ("init_att_sigma_arcmin", "init_vel_sigma_mps"):
+        fb["config"].pop(k)
+    write_import_file(tmp_path, fb)
+    doc = yaml.safe_load((tmp_path / "import.yaml").read_text())
+    del doc["truth"]
+    doc["alignment"] = {"window_s": 5.0}
+    (tmp_path / "import.yaml").write_text(yaml.safe_dump(doc))
+    r = import_data.load_import(tmp_path / "import.yaml")
+    al = r["alignment"] if "alignment" in r else None
+    init = r["setup"]["filter"]["initial_state"]
+    k = int(np.argmin(np.abs(tr.t_s + t0 - init["t_s"])))
+    assert abs(tr.t_s[k] + t0 - init["t_s"]) < 1e-6 and r["imu"].t_s[0] == init["t_s"]
+    phi = attitude_error_n_rad(quat_xyzw_to_C(init["q_b_enu_xyzw"]), tr.C_b_n[k])
+    sigma = np.radians(np.asarray(r["setup"]["filter"]["config"]["init_att_sigma_arcmin"]) / 60.0)
+    assert np.all(np.abs(phi) < 3 * sigma), (np.degrees(phi), np.degrees(sigma), al)
+    assert np.asarray(init["vel_enu_mps"]) == pytest.approx(tr.vel_enu_mps[k], abs=1.0)
+    doc["filter"]["initial_state"] = {"t_s": t0}
+    (tmp_path / "import.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(ConfigError, match="filter.initial_state.t_s: given .* without an attitude"):
+        import_data.load_import(tmp_path / "import.yaml")
