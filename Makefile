@@ -6,7 +6,7 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking \
+.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk \
 	seed003 seed004 reproduce-seed000
 
 help:
@@ -23,6 +23,7 @@ help:
 	@echo "make repro-seed003 - seed 003 Table 3 / Figs. 6-9 with the PCRB (SEEDS=20 WORKERS=1)"
 	@echo "make repro-seed004 - seed 004 Tables 4-5 / Figs. 5-6: virtual GNSS under lock loss, both worlds (3 seeds)"
 	@echo "make repro-aided-tracking - issue 23: unaided vs INS-aided receiver through a plasma blackout (10 seeds)"
+	@echo "make repro-walk    - the walk_0827 recording (u-blox + MEMS IMU): TC / LC / SPP against RTK, outages"
 
 setup:
 	@bash tools/setup.sh
@@ -60,6 +61,8 @@ repro-seed004: setup
 
 repro-aided-tracking: setup
 	@$(ENV) ros2run hyper_nav_repro repro_aided_tracking --out results/aided_tracking $(ARGS)
+repro-walk: setup
+	@$(ENV) ros2run hyper_nav_sim repro_walk --out results/walk $(ARGS)
 
 # earlier names
 reproduce-seed000: repro-seed000

@@ -39,6 +39,7 @@ setup(
             "foxglove_view = hyper_nav_sim.nodes.foxglove_view:main",
             "mc_campaign = hyper_nav_sim.mc_campaign:main",
             "spp = hyper_nav_sim.spp:main",
+            "repro_walk = hyper_nav_sim.repro_walk:main",
         ],
         # pytest fixtures for users' own ROS tests (hyper_nav_graph, hyper_nav_domain_id)
         "pytest11": ["hyper_nav = hyper_nav_sim.pytest_plugin"],

@@ -42,6 +42,23 @@ written. The default sources of these presets: ``imu/data_raw`` (imu) and
 ``gnss/raw`` (gnss_raw, tightly coupled).
 The first IMU record only starts the time line (its interval is unknown);
 the initial state is at its epoch unless ``initial_state.t_s`` says otherwise.
+
+No attitude in ``filter.initial_state`` (and no truth file): the filter
+aligns on the data (``hyper_nav_filter.core.alignment``): levelling on the
+first ``alignment.window_s`` seconds, heading by gyrocompassing where the
+IMU grade (the filter block's bias sigmas) allows, else from the first GNSS
+velocity above ``alignment.speed_threshold_mps`` (receiver presets: this
+project's single-point position + Doppler velocity; fix files: their velocity
+columns); the IMU table then starts at the alignment epoch, and the
+alignment's sigmas become ``init_att_sigma_arcmin``, ``init_vel_sigma_mps``
+(and the gyro bias prior when it was estimated on a static window). Fields
+given explicitly win. Optional ``alignment:`` block: ``window_s`` (5),
+``speed_threshold_mps`` (1), ``static_speed_mps`` (0.3),
+``max_gyrocompass_sigma_deg`` (3), ``course_sigma_deg`` (0). The IMU block's
+``mounting`` and ``antenna_lever_arm_m`` (core/importer/columns.py) are
+applied in the importer; the lever arm becomes ``antenna_lever_arm_b_m``
+unless the filter block sets it. ``{real_data}`` in a file path is the
+shared recordings folder (``spp.default_data_dir``).
 """
 from __future__ import annotations
 
@@ -64,7 +81,10 @@ PRESETS = {"kfgins": kfgins.preset}
 GNSS_RAW_PRESETS = ("ubx", "rinex")
 # IMU file formats for the receiver presets: name -> function(spec) -> column map (columns.py fields)
 IMU_FORMATS: dict = {}
-KNOWN = {"preset", "kfgins_config", "imu", "gnss", "truth", "start_s", "end_s", "filter", "report"}
+KNOWN = {"preset", "kfgins_config", "imu", "gnss", "truth", "start_s", "end_s", "filter", "report", "alignment"}
+ALIGNMENT_KNOWN = {"window_s", "speed_threshold_mps", "static_speed_mps", "max_gyrocompass_sigma_deg",
+                   "course_sigma_deg"}
+_ATTITUDE_FIELDS = ("q_b_enu_xyzw", "roll_pitch_heading_deg")
 RAW_SOURCES = {"imu": {"type": "imu", "topic": "imu/data_raw"},
                "gnss": {"type": "gnss_raw", "topic": "gnss/raw"}}
 
@@ -91,12 +111,26 @@ def _stream_spec(doc: dict, stream: str, base_dir: pathlib.Path) -> dict | None:
     return PRESETS[preset](stream, spec, n_cols)
 
 
-def load_import(path) -> dict:
+def _real_data(doc: dict, data_dir) -> dict:
+    """``{real_data}`` in a stream's file path -> the shared recordings folder
+    (``data_dir``, else ``spp.default_data_dir()``)."""
+    from .spp import default_data_dir
+    for stream in ("imu", "gnss", "truth"):
+        spec = doc.get(stream)
+        if isinstance(spec, dict):
+            for key in ("file", "nav"):
+                if isinstance(spec.get(key), str) and "{real_data}" in spec[key]:
+                    spec[key] = spec[key].replace("{real_data}", str(data_dir or default_data_dir()))
+    return doc
+
+
+def load_import(path, data_dir=None) -> dict:
     """Read and check an import file: the tables (windowed) and the filter setup dict."""
     path = pathlib.Path(path)
     doc = yaml.safe_load(path.read_text())
     if not isinstance(doc, dict):
         raise ConfigError(f"{path}: expected a mapping")
+    doc = _real_data(doc, data_dir)
     unknown = sorted(set(doc) - KNOWN)
     if unknown:
         raise ConfigError(f"{unknown[0]}: unknown field (known: {', '.join(sorted(KNOWN))})")
@@ -124,11 +158,21 @@ def load_import(path) -> dict:
     if truth is not None and (truth.vel_enu_mps is None or truth.rph_rad is None):
         raise ConfigError("truth: needs velocity and attitude columns")
     filt = _merge(filt, doc.get("filter") or {})
+    _mounting_to_config(imu, filt)
     init = dict(filt.get("initial_state") or {})
-    if not init:
-        if truth is None:
-            raise ConfigError("filter.initial_state: required when no truth file is given")
+    if not init and truth is not None:
         init = initial_from_truth(truth, imu.t_s[0])
+    elif not any(k in init for k in _ATTITUDE_FIELDS):         # no truth, no attitude: align on the data
+        if gnss is None or gnss.vel_enu_mps is None:
+            if not init:
+                raise ConfigError("filter.initial_state: required when no truth file is given")
+        else:
+            al = align_on_data(imu, gnss.t_s, gnss.vel_enu_mps, gnss.vel_sigma_enu_mps, float(gnss.lat_rad[0]),
+                               float(gnss.alt_m[0]), filt, doc.get("alignment"))
+            imu = columns.window(imu, al.t_s, end)
+            k = int(np.argmin(np.abs(gnss.t_s - al.t_s)))
+            init = {"lat_deg": float(np.rad2deg(gnss.lat_rad[k])), "lon_deg": float(np.rad2deg(gnss.lon_rad[k])),
+                    "alt_m": float(gnss.alt_m[k]), **_apply_alignment(al, filt, init)}
     init.setdefault("t_s", float(imu.t_s[0]))
     filt["initial_state"] = init
     setup = {"filter": filt, "report": {"skip_s": 0.0, **(doc.get("report") or {})}}
@@ -163,11 +207,22 @@ def load_raw_import(doc: dict, base: pathlib.Path) -> dict:
         if len(imu.t_s) < 2:
             raise ConfigError(f"imu: fewer than 2 IMU records in the window [{start}, {end}]")
     setup = None
+    alignment = None
     if imu is not None:
         filt = copy.deepcopy(doc.get("filter") or {})
         filt.setdefault("config", {}).setdefault("state_blocks", ["att", "vel", "pos", "bg", "ba", "clk"])
         filt.setdefault("sources", copy.deepcopy(RAW_SOURCES))
+        _mounting_to_config(imu, filt)
         init = dict(filt.get("initial_state") or {})
+        if not any(k in init for k in _ATTITUDE_FIELDS):       # no attitude given: align on the data
+            a_spec = _alignment_spec(doc.get("alignment"))
+            t0 = float(imu.t_s[0])
+            fixes = gnss_raw.spp_fixes(gnss, t0 - 1.0, t0 + a_spec.get("window_s", 5.0) + 120.0)
+            al = align_on_data(imu, fixes.t_s, fixes.vel_enu_mps, np.sqrt(np.einsum("kii->ki", fixes.vel_cov_enu_m2ps2)),
+                               float(fixes.lat_rad[0]), float(fixes.alt_m[0]), filt, a_spec)
+            imu = columns.window(imu, al.t_s, end)        # the alignment epoch starts the time line
+            init = _apply_alignment(al, filt, init)
+            alignment = al
         init.setdefault("t_s", float(imu.t_s[0]))
         if "lat_deg" not in init:                 # position, clock, inter-system biases from SPP
             init = {**gnss_raw.initial_from_spp(gnss, init["t_s"]), **init}
@@ -176,7 +231,82 @@ def load_raw_import(doc: dict, base: pathlib.Path) -> dict:
         FilterSetup.from_dict(setup)
     elif doc.get("filter"):
         raise ConfigError("filter: needs an imu block (the filter is driven by the IMU)")
-    return {"imu": imu, "gnss": None, "truth": None, "gnss_raw": gnss, "setup": setup, "window": (start, end)}
+    return {"imu": imu, "gnss": None, "truth": None, "gnss_raw": gnss, "setup": setup, "window": (start, end),
+            "alignment": alignment}
+
+
+def _alignment_spec(spec) -> dict:
+    spec = dict(spec or {})
+    unknown = sorted(set(spec) - ALIGNMENT_KNOWN)
+    if unknown:
+        raise ConfigError(f"alignment.{unknown[0]}: unknown field (known: {', '.join(sorted(ALIGNMENT_KNOWN))})")
+    for k, v in spec.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise ConfigError(f"alignment.{k}: expected a number >= 0, got {v!r}")
+    return spec
+
+
+def _mounting_to_config(imu, filt: dict) -> None:
+    """The IMU block's antenna lever arm as the filter's, unless the filter block sets one."""
+    if imu.antenna_lever_arm_b_m is not None:
+        filt.setdefault("config", {}).setdefault("antenna_lever_arm_b_m", list(imu.antenna_lever_arm_b_m))
+
+
+def imu_grade(config: dict):
+    """``core.alignment.ImuGrade`` of a filter config block (its declared
+    bias sigmas: the initial ones when set, else the steady-state ones; ARW, VRW)."""
+    from hyper_nav_filter.core import units
+    from hyper_nav_filter.core.alignment import ImuGrade
+    from hyper_nav_filter.core.config import FilterConfig
+    c = FilterConfig.from_dict({k: v for k, v in (config or {}).items()})
+    ba = np.asarray(c.init_accel_bias_sigma_ug, float)
+    ba = np.asarray(c.accel_bias_sigma_ug, float) if np.all(np.isnan(ba)) else ba
+    bg = np.asarray(c.init_gyro_bias_sigma_deg_per_hr, float)
+    bg = np.asarray(c.gyro_bias_sigma_deg_per_hr, float) if np.all(np.isnan(bg)) else bg
+    return ImuGrade(float(np.max(units.ug(ba))), float(np.max(units.deg_per_hr(bg))),
+                    float(np.max(units.deg_per_sqrt_hr(c.gyro_arw_deg_per_sqrt_hr))),
+                    float(np.max(units.ug_per_sqrt_hz(c.accel_vrw_ug_per_sqrt_hz))))
+
+
+def align_on_data(imu, gnss_t_s, gnss_vel_enu_mps, gnss_vel_sigma_mps, lat_rad: float, alt_m: float, filt: dict,
+                  spec=None):
+    """``core.alignment.align`` on an imported IMU table (mean rates =
+    increments / stamp intervals; row 0 only starts the time line) and GNSS
+    velocities, with the IMU grade of the filter block."""
+    from hyper_nav_filter.core.alignment import AlignmentError, align
+    dt = np.diff(imu.t_s)
+    try:
+        return align(imu.t_s[1:], imu.dtheta_b_rad[1:] / dt[:, None], imu.dvel_b_mps[1:] / dt[:, None], lat_rad,
+                     alt_m, imu_grade(filt.get("config")), gnss_t_s, gnss_vel_enu_mps, gnss_vel_sigma_mps,
+                     **_alignment_spec(spec))
+    except AlignmentError as exc:
+        raise ConfigError(f"filter.initial_state: no attitude given and {exc}") from None
+
+
+def _apply_alignment(al, filt: dict, init: dict) -> dict:
+    """The alignment's initial state under the explicitly given fields, and
+    its prior sigmas under the explicitly given config fields; a gyro bias
+    estimated on a static window replaces the declared (turn-on) prior sigma,
+    which served as the IMU grade."""
+    from hyper_nav_filter.core.config import PARAM_BY_NAME
+    from hyper_nav_filter.core.initial_state import INIT_BY_NAME
+    cfg = filt.setdefault("config", {})
+    for k, v in al.config_fields().items():
+        if not ({k} | {a.name for a in PARAM_BY_NAME[k].aliases}) & set(cfg):
+            cfg[k] = v
+    if al.method == "gnss_velocity" and al.static:    # the bias was estimated on the static window: its sigma
+        for name in ["init_gyro_bias_sigma_deg_per_hr"] + [a.name for a in
+                                                              PARAM_BY_NAME["init_gyro_bias_sigma_deg_per_hr"].aliases]:
+            cfg.pop(name, None)
+        cfg["init_gyro_bias_sigma_deg_per_hr"] = al.config_fields()["init_gyro_bias_sigma_deg_per_hr"]
+    if "t_s" in init and abs(float(init["t_s"]) - al.t_s) > 1e-6:
+        raise ConfigError(f"filter.initial_state.t_s: given ({init['t_s']}) without an attitude, but the alignment "
+                          f"holds at {al.t_s!r}: give the attitude too, or leave t_s out")
+    out = dict(init)
+    for k, v in al.initial_state_fields().items():
+        if not ({k} | {a.name for a in INIT_BY_NAME[k].aliases}) & set(init):
+            out[k] = v
+    return out
 
 
 def initial_from_truth(truth, t_s: float) -> dict:

@@ -128,7 +128,10 @@ def _run(bag, s: Setup, inputs: set, keep_history: bool):
     stamps = [t.stamp_s for t in topics if len(t)]
     t0, t1 = min(float(x.min()) for x in stamps), max(float(x.max()) for x in stamps)
     progress = Progress("replay_filter", total=t1 - t0)
-    if late is not None and len(late):
+    # gnss/raw carries a string sequence (``signal``) that the field arrays split into one column per
+    # index (signal.0, signal.1, ...) and a row view cannot read back as a sequence: the per-message path
+    raw_gnss = any(name.lstrip("/") == "gnss/raw" for name in arrays.topics if name.lstrip("/") in inputs)
+    if (late is not None and len(late)) or raw_gnss:
         from hyper_nav_filter.offline import run_offline
 
         from .core.bag import deserialize, read_bag

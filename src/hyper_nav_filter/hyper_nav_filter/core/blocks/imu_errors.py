@@ -18,7 +18,10 @@ steady-state sigma of a Gauss-Markov block sets its driving noise
 (2 sigma^2 / tau); its prior (initial 1-sigma) is the ``init_*_sigma``
 parameter when that is set, else the steady-state sigma. Units other tools
 use are aliases (``core.params``): accelerometer biases in mGal or m/s^2,
-gyro biases in rad/s. Initial values of biases and scale factors come with
+gyro biases in rad/s or deg/s (MEMS). A data sheet's bias random walk N_b
+(e.g. ug/sqrt(Hz), deg/s/sqrt(s)) is this model with a correlation time tau
+longer than the run and sigma = N_b sqrt(tau / 2): the driving noise
+2 sigma^2 / tau is then N_b^2 (Groves 2nd ed. sec. 14.2.6). Initial values of biases and scale factors come with
 the initial state (``core.initial_state``), not from here.
 """
 from __future__ import annotations
@@ -95,10 +98,12 @@ class GyroBias(_BiasBlock):
     to_si = float(units.deg_per_hr(1.0))
     PARAMS = (
         _sigma3("gyro_bias_sigma_deg_per_hr", 0.1, "gyro bias steady-state 1-sigma (sets the driving noise)",
-                "deg/h", ("gyro_bias_sigma_rad_per_s", _RADPS_IN_DPH, "rad/s")),
+                "deg/h", ("gyro_bias_sigma_rad_per_s", _RADPS_IN_DPH, "rad/s"),
+                ("gyro_bias_sigma_deg_per_s", 3600.0, "deg/s")),
         positive("gyro_bias_tau_s", FLOAT, 3600.0, "gyro bias correlation time (s); very large = random constant"),
         _init_sigma3("init_gyro_bias_sigma_deg_per_hr", "gyro_bias_sigma_deg_per_hr", "deg/h",
-                     ("init_gyro_bias_sigma_rad_per_s", _RADPS_IN_DPH, "rad/s")),
+                     ("init_gyro_bias_sigma_rad_per_s", _RADPS_IN_DPH, "rad/s"),
+                     ("init_gyro_bias_sigma_deg_per_s", 3600.0, "deg/s")),
     )
 
 
@@ -114,7 +119,8 @@ class AccelBias(_BiasBlock):
                 ("accel_bias_sigma_mps2", 1.0 / float(units.ug(1.0)), "m/s^2")),
         positive("accel_bias_tau_s", FLOAT, 3600.0, "accelerometer bias correlation time (s)"),
         _init_sigma3("init_accel_bias_sigma_ug", "accel_bias_sigma_ug", "ug",
-                     ("init_accel_bias_sigma_mgal", _MGAL_IN_UG, "mGal")),
+                     ("init_accel_bias_sigma_mgal", _MGAL_IN_UG, "mGal"),
+                     ("init_accel_bias_sigma_mps2", 1.0 / float(units.ug(1.0)), "m/s^2")),
     )
 
 

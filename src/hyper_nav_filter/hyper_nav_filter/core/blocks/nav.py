@@ -11,7 +11,7 @@ angle random walk enters the attitude error rate as -C_b_x w_g, the
 accelerometer velocity random walk the velocity error rate as +C_b_x w_a.
 Both are per body axis (a single number in a file means every axis) and may
 be given in the units other tools use (``core.params`` aliases): ARW also in
-rad/sqrt(s) or deg/h/sqrt(Hz), VRW also in m/s/sqrt(h) (KF-GINS) or
+rad/sqrt(s), deg/h/sqrt(Hz) or deg/s/sqrt(Hz) (MEMS data sheets), VRW also in m/s/sqrt(h) (KF-GINS) or
 m/s/sqrt(s).
 """
 from __future__ import annotations
@@ -33,7 +33,8 @@ class Attitude(Block):
         with_aliases(nonneg("gyro_arw_deg_per_sqrt_hr", FLOATS, (0.01, 0.01, 0.01),
                             "gyro angle random walk the filter assumes, per body axis (deg/sqrt(h))", length=3),
                      ("gyro_arw_rad_per_sqrt_s", 1.0 / float(units.deg_per_sqrt_hr(1.0)), "rad/sqrt(s)"),
-                     ("gyro_arw_deg_per_hr_per_sqrt_hz", 1.0 / 60.0, "deg/h/sqrt(Hz)")),
+                     ("gyro_arw_deg_per_hr_per_sqrt_hz", 1.0 / 60.0, "deg/h/sqrt(Hz)"),
+                     ("gyro_arw_deg_per_s_per_sqrt_hz", 60.0, "deg/s/sqrt(Hz), MEMS data sheets")),
     )
 
     def prior_sigma(self, cfg):

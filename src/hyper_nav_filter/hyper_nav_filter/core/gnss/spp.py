@@ -32,6 +32,8 @@ from .. import earth
 from .raim import global_statistic, standardized_residuals, threshold
 from .receiver_model import ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges
 
+C_MPS = 299792458.0
+
 SYSTEM_ORDER = ("G", "E", "C", "J")
 
 
@@ -234,3 +236,68 @@ def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None) -> lis
         if s.valid:
             x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
     return out
+
+
+@dataclass
+class SppVelocity:
+    """Receiver velocity from Doppler (pseudorange rates) at a solved epoch."""
+    t_s: float
+    vel_enu_mps: np.ndarray
+    cov_enu_m2ps2: np.ndarray
+    clock_drift_mps: float
+    n_used: int
+
+    @property
+    def sigma_enu_mps(self) -> np.ndarray:
+        return np.sqrt(np.diag(self.cov_enu_m2ps2))
+
+
+def solve_velocity(raw, store, cfg: SppConfig, sol: SppSolution, max_w: float = 5.0) -> SppVelocity | None:
+    """Weighted least squares velocity and clock drift from the pseudorange
+    rates of one epoch at its SPP position (Groves 2nd ed. eq. 9.142; RTKLIB
+    manual E.6.10 without the Sagnac rate term, < 5 mm/s here):
+
+        rate_j + c dts_dot_j - u_j . v_sat_j = -u_j . v_rx + d,
+
+    u_j the unit line of sight receiver -> satellite (ECEF), d the receiver
+    clock drift (m/s, one oscillator for every system). Satellites below the
+    elevation mask or without a Doppler are left out; the largest
+    standardized residual above ``max_w`` is removed while 5 remain. The
+    covariance is scaled by the unit-weight variance when that exceeds 1.
+    None when fewer than 5 satellites remain."""
+    if not sol.valid:
+        return None
+    obs = satellite_observations(raw, store, cfg.model, Counter(), exclude=cfg.exclude)
+    if len(obs) < 5:
+        return None
+    states = states_from_pseudoranges(obs)
+    cor = corrected_at(obs, sol.pos_ecef_m, sol.clock_bias_m, cfg.model, states)
+    ch0 = np.array([c.channels[0] for c in obs.choices], int)
+    rate = np.asarray(raw.rate_mps, float)[ch0] + C_MPS * cor.sat_clock_drift_sps
+    var = np.asarray(raw.rate_sigma_mps, float)[ch0] ** 2
+    rs = np.einsum("kij,kj->ki", cor.rot, cor.r_sat_e_m)
+    vs = np.einsum("kij,kj->ki", cor.rot, cor.v_sat_e_mps)
+    u = rs - sol.pos_ecef_m
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    y = rate - np.einsum("ki,ki->k", u, vs)
+    ok = np.isfinite(y) & np.isfinite(var) & (var > 0) & (cor.el_rad >= cfg.model.elevation_mask_rad)
+    idx = np.flatnonzero(ok)
+    while len(idx) >= 5:
+        H = np.hstack([-u[idx], np.ones((len(idx), 1))])
+        W = 1.0 / var[idx]
+        N = H.T @ (H * W[:, None])
+        x = np.linalg.solve(N, H.T @ (W * y[idx]))
+        v = y[idx] - H @ x
+        Q = np.linalg.inv(N)
+        s_v = np.sqrt(np.maximum(var[idx] - np.einsum("ki,ij,kj->k", H, Q, H), 1e-12))
+        w = np.abs(v) / s_v
+        j = int(np.argmax(w))
+        if w[j] > max_w and len(idx) > 5:
+            idx = np.delete(idx, j)
+            continue
+        dof = len(idx) - 4
+        f = max(1.0, float(v @ (W * v)) / dof) if dof > 0 else 1.0
+        lat, lon, _ = earth.ecef_to_geodetic(sol.pos_ecef_m)
+        R = earth.C_n_e(lat, lon).T                      # ECEF -> ENU
+        return SppVelocity(sol.t_s, R @ x[:3], R @ (Q[:3, :3] * f) @ R.T, float(x[3]), len(idx))
+    return None

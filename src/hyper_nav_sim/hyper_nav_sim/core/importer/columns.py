@@ -11,6 +11,9 @@ A stream (``imu``, ``gnss``, ``truth``) is described by a mapping::
     gyro: {columns: [1, 2, 3], unit: rad}  # increments: rad | deg; rates: rad/s | deg/s | deg/h
     accel: {columns: [4, 5, 6], unit: m/s} # increments: m/s; rates: m/s^2 | g | mg
     body: FRD                  # FLU | FRD (x forward, y right, z down) | RFU (x right, y forward, z up)
+    mounting: {roll_pitch_yaw_deg: [180, 0, -90]}   # optional: the IMU sits rotated in the body (see below)
+    antenna_lever_arm_m: [0, -0.05, 0]  # optional: GNSS antenna from the IMU, body axes of ``body``
+    max_gap_s: 1.0             # an interval longer than this is an error naming imu.time (default 1 s)
     # gnss / truth
     lat: {column: 1, unit: deg}            # deg | rad
     lon: {column: 2, unit: deg}
@@ -22,6 +25,31 @@ A stream (``imu``, ``gnss``, ``truth``) is described by a mapping::
 
 Columns count from 0. Every unit and frame is converted here, once
 (STYLE pattern 6); what leaves this module is SI, body FLU, ENU.
+
+IMU mounting (applied once, here): the file's axes are the sensor axes s,
+read in the ``body`` convention; ``mounting`` rotates them into the body
+axes b the filter works in (same convention), then the convention goes to
+FLU: v_FLU = M_body C_s_b v_s. Either
+  * ``roll_pitch_yaw_deg: [r, p, y]``: the attitude of the body axes with
+    respect to the sensor axes (aerospace z-y-x Euler angles; the
+    ``imu_misalign`` of rtklibexplorer/GNSS_IMU, Groves' Euler_to_CTM):
+    C_s_b = (Rz(y) Ry(p) Rx(r))^T, or
+  * ``matrix``: C_s_b itself (3 x 3, rows = body axes in sensor axes); it
+    must be a rotation (orthonormal to 1e-6, determinant +1), else an error
+    names ``imu.mounting.matrix``.
+``antenna_lever_arm_m`` is the antenna position from the IMU in body axes
+(``body`` convention); it becomes the filter's ``antenna_lever_arm_b_m`` (FLU)
+unless the filter block sets that.
+
+IMU timing: each rate sample is the mean rate over (t[k-1], t[k]] and the
+increment is rate x (t[k] - t[k-1]) from the stamps themselves, so jitter and
+a dropped sample (a doubled interval) are integrated over the real interval
+(rectangle rule: for a sampled, not averaged, rate the increment error is
+0.5 x rate-derivative x dt^2 per sample). A row repeating the previous
+row's stamp *and* values is a logged duplicate: dropped and counted
+(``ImuTable.duplicates``); a repeated stamp with other values, a time
+reversal or an interval above ``max_gap_s`` is an error naming ``imu.time``
+and the data row (1-based, after the skipped header lines).
 """
 from __future__ import annotations
 
@@ -30,6 +58,8 @@ import pathlib
 from dataclasses import dataclass
 
 import numpy as np
+
+from scipy.spatial.transform import Rotation
 
 from hyper_nav_filter.core import units
 from hyper_nav_filter.core.earth import G0_MPS2
@@ -53,6 +83,9 @@ class ImuTable:
     t_s: np.ndarray                 # end of each interval
     dtheta_b_rad: np.ndarray        # (n, 3) body FLU increments over (t[k-1], t[k]]; row 0 has no interval
     dvel_b_mps: np.ndarray
+    duplicates: tuple = ()          # data rows (1-based) dropped as logged duplicates
+    antenna_lever_arm_b_m: tuple | None = None     # FLU, from ``antenna_lever_arm_m``
+    C_s_b: tuple | None = None      # the mounting rotation applied (rows), None: none
 
 
 @dataclass
@@ -79,8 +112,42 @@ def _frame(table: dict, name: str, where: str) -> np.ndarray:
     return table[name]
 
 
-def read_table(spec: dict, base_dir: pathlib.Path, where: str) -> np.ndarray:
-    """The numeric table of a stream (rows x columns, float)."""
+def _bad_cell(path, delim, skip, where, column_names: dict) -> str | None:
+    """The first cell that is not a number, as an error naming the field that reads its column."""
+    with open(path) as f:
+        lines = f.readlines()
+    k_data = 0
+    for n, ln in enumerate(lines[skip:], start=skip + 1):
+        if not ln.strip() or ln.lstrip().startswith("#"):
+            continue
+        k_data += 1
+        for c, cell in enumerate(ln.split(delim)):
+            try:
+                float(cell)
+            except ValueError:
+                field = column_names.get(c)
+                what = f"{where}.{field}" if field else f"{where}.file"
+                return (f"{what}: column {c} of {path} line {n} (data row {k_data}) is not a number: "
+                        f"{cell.strip()!r}")
+    return None
+
+
+def _column_names(spec: dict) -> dict:
+    """{column: field} of a stream's column map (for error messages)."""
+    out = {}
+    for name, f in spec.items():
+        if isinstance(f, dict):
+            cols = f.get("columns", f.get("column"))
+            for c in ([cols] if isinstance(cols, int) else cols or []):
+                if isinstance(c, int):
+                    out[c] = name
+    return out
+
+
+def read_table(spec: dict, base_dir: pathlib.Path, where: str, column_names: dict | None = None) -> np.ndarray:
+    """The numeric table of a stream (rows x columns, float); a cell that is
+    not a number is an error naming the field reading its column."""
+    column_names = column_names if column_names is not None else _column_names(spec)
     if "file" not in spec:
         raise ConfigError(f"{where}.file: required")
     path = pathlib.Path(spec["file"])
@@ -96,7 +163,8 @@ def read_table(spec: dict, base_dir: pathlib.Path, where: str) -> np.ndarray:
     try:
         data = np.loadtxt(path, delimiter=delim, skiprows=skip, comments="#", ndmin=2)
     except ValueError as exc:
-        raise ConfigError(f"{where}.file: {path}: not a numeric table ({exc})") from None
+        raise ConfigError(_bad_cell(path, delim, skip, where, column_names or {}) or
+                          f"{where}.file: {path}: not a numeric table ({exc})") from None
     if not len(data):
         raise ConfigError(f"{where}.file: {path}: no data rows")
     return data
@@ -129,16 +197,83 @@ def _time(data, spec, where) -> np.ndarray:
     t = _cols(data, f, 1, f"{where}.time") * _unit(TIME_UNITS, f.get("unit", "s"), f"{where}.time")
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
-        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} ({t[k]!r} -> {t[k + 1]!r})")
+        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} ({float(t[k])!r} -> {float(t[k + 1])!r})")
     return t
+
+
+def mounting_matrix(spec: dict, where: str = "imu") -> np.ndarray | None:
+    """C_s_b of the ``mounting`` field (module docstring), None when absent;
+    ConfigError naming the field when it is not a rotation."""
+    m = spec.get("mounting")
+    if m is None:
+        return None
+    keys = ("roll_pitch_yaw_deg", "matrix")
+    if not isinstance(m, dict) or len(m) != 1 or next(iter(m)) not in keys:
+        raise ConfigError(f"{where}.mounting: expected one of {{roll_pitch_yaw_deg: [r, p, y]}} or "
+                          f"{{matrix: [[...], [...], [...]]}}, got {m!r}")
+    if "roll_pitch_yaw_deg" in m:
+        v = m["roll_pitch_yaw_deg"]
+        if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(_is_num(x) and math.isfinite(x) for x in v)):
+            raise ConfigError(f"{where}.mounting.roll_pitch_yaw_deg: expected 3 finite numbers (deg), got {v!r}")
+        r, p, y = (float(x) for x in v)
+        return Rotation.from_euler("ZYX", [y, p, r], degrees=True).as_matrix().T
+    v = m["matrix"]
+    try:
+        C = np.array(v, dtype=float)
+    except (TypeError, ValueError):
+        C = None
+    if C is None or C.shape != (3, 3) or not np.all(np.isfinite(C)):
+        raise ConfigError(f"{where}.mounting.matrix: expected a 3 x 3 matrix of numbers, got {v!r}")
+    ortho = float(np.max(np.abs(C @ C.T - np.eye(3))))
+    det = float(np.linalg.det(C))
+    if ortho > 1e-6 or det < 0:
+        raise ConfigError(f"{where}.mounting.matrix: not a rotation (max |C C^T - I| = {ortho:.3g}, "
+                          f"det = {det:.6g}; a rotation has 0 and +1)")
+    return C
+
+
+def _is_num(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _imu_time(data, spec, where):
+    """Stamps with logged duplicates removed: (t, kept row mask, duplicate rows 1-based)."""
+    f = _field(spec, "time", where)
+    t = _cols(data, f, 1, f"{where}.time") * _unit(TIME_UNITS, f.get("unit", "s"), f"{where}.time")
+    max_gap = spec.get("max_gap_s", 1.0)
+    if not _is_num(max_gap) or not max_gap > 0:
+        raise ConfigError(f"{where}.max_gap_s: expected a positive number (s), got {max_gap!r}")
+    if not np.all(np.isfinite(t)):
+        k = int(np.argmax(~np.isfinite(t)))
+        raise ConfigError(f"{where}.time: not a finite stamp at data row {k + 1} ({float(t[k])!r})")
+    dt = np.diff(t)
+    same = dt == 0
+    dup = np.zeros(len(t), bool)
+    for k in np.flatnonzero(same):
+        if np.array_equal(data[k + 1], data[k]):
+            dup[k + 1] = True
+        else:
+            raise ConfigError(f"{where}.time: stamp {float(t[k])!r} repeated at data rows {k + 1} and {k + 2} with "
+                              "different samples (a logged duplicate repeats the whole row)")
+    if np.any(dt < 0):
+        k = int(np.argmax(dt < 0))
+        raise ConfigError(f"{where}.time: not increasing at data row {k + 1} (time reversal {float(t[k])!r} -> {float(t[k + 1])!r}, "
+                          f"{dt[k]:.6g} s)")
+    if np.any(dt > max_gap):
+        k = int(np.argmax(dt > max_gap))
+        raise ConfigError(f"{where}.time: gap of {dt[k]:.3f} s between data rows {k + 1} and {k + 2} (t = "
+                          f"{float(t[k])!r}); longer than {where}.max_gap_s = {max_gap:g} s: split the file or raise it")
+    keep = ~dup
+    return t[keep], keep, tuple(int(k) + 1 for k in np.flatnonzero(dup))
 
 
 def imu_table(spec: dict, base_dir, where: str = "imu") -> ImuTable:
     """IMU samples as body-FLU increments (rates are integrated over the
     stamp differences: increment = rate x (t[k] - t[k-1]), the sensor_msgs/Imu
-    convention of this project)."""
+    convention of this project); mounting and timing as the module docstring says."""
     data = read_table(spec, base_dir, where)
-    t = _time(data, spec, where)
+    t, keep, dups = _imu_time(data, spec, where)
+    data = data[keep]
     kind = spec.get("kind", "increments")
     if kind not in ("increments", "rates"):
         raise ConfigError(f"{where}.kind: expected 'increments' or 'rates', got {kind!r}")
@@ -150,12 +285,19 @@ def imu_table(spec: dict, base_dir, where: str = "imu") -> ImuTable:
         gs = _unit(RATE_UNITS, g.get("unit", "rad/s"), f"{where}.gyro")
         as_ = _unit(ACCEL_UNITS, a.get("unit", "m/s^2"), f"{where}.accel")
     M = _frame(BODY_TO_FLU, spec.get("body", "FLU"), f"{where}.body")
-    w = _cols(data, g, 3, f"{where}.gyro") * gs @ M.T
-    f = _cols(data, a, 3, f"{where}.accel") * as_ @ M.T
+    C_s_b = mounting_matrix(spec, where)
+    R = M if C_s_b is None else M @ C_s_b                 # sensor -> body FLU, once
+    w = _cols(data, g, 3, f"{where}.gyro") * gs @ R.T
+    f = _cols(data, a, 3, f"{where}.accel") * as_ @ R.T
     if kind == "rates":
         dt = np.diff(t, prepend=np.nan)[:, None]
         w, f = w * dt, f * dt
-    return ImuTable(t, w, f)
+    lever = spec.get("antenna_lever_arm_m")
+    if lever is not None:
+        if not (isinstance(lever, (list, tuple)) and len(lever) == 3 and all(_is_num(x) for x in lever)):
+            raise ConfigError(f"{where}.antenna_lever_arm_m: expected 3 numbers (m), got {lever!r}")
+        lever = tuple(float(x) for x in M @ np.asarray(lever, float))
+    return ImuTable(t, w, f, dups, lever, None if C_s_b is None else tuple(map(tuple, C_s_b.tolist())))
 
 
 def fix_table(spec: dict, base_dir, where: str) -> FixTable:

@@ -254,3 +254,59 @@ def initial_from_spp(imp: GnssImport, t_stamp_s: float, n_epochs: int = 5) -> di
     isb = [float(np.mean([s.isb_m.get(k, 0.0) for s in sols])) for k in ("E", "C", "J")]
     return {"lat_deg": float(np.rad2deg(lat)), "lon_deg": float(np.rad2deg(lon)), "alt_m": float(alt),
             "clock_bias_m": float(b[0] + drift * (t_stamp_s - t[0])), "clock_drift_mps": drift, "isb_m": isb}
+
+
+@dataclass
+class SppFixes:
+    """Single-point fixes of a receiver import (stamps on the import's time
+    axis): antenna position and ENU covariance, Doppler velocity and its ENU
+    covariance (NaN where no velocity solution), as ``columns.FixTable`` fields."""
+    t_s: np.ndarray
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+    alt_m: np.ndarray
+    pos_cov_enu_m2: np.ndarray
+    vel_enu_mps: np.ndarray
+    vel_cov_enu_m2ps2: np.ndarray
+    clock_bias_m: np.ndarray
+    clock_drift_mps: np.ndarray
+
+    def fix_table(self):
+        """The fixes as a ``columns.FixTable`` (sigmas: the covariance diagonals)."""
+        from .columns import FixTable
+        return FixTable(self.t_s, self.lat_rad, self.lon_rad, self.alt_m,
+                        np.sqrt(np.einsum("kii->ki", self.pos_cov_enu_m2)), self.vel_enu_mps,
+                        np.sqrt(np.einsum("kii->ki", self.vel_cov_enu_m2ps2)))
+
+
+def spp_fixes(imp: GnssImport, t_from_s: float | None = None, t_to_s: float | None = None) -> SppFixes:
+    """Single-point position (``core.gnss.spp``, default signal plan and
+    error model) and Doppler velocity (``spp.solve_velocity``) of every
+    receiver epoch with a stamp in [t_from_s, t_to_s]; only epochs with a
+    valid position and a velocity are kept."""
+    from hyper_nav_filter.core import earth
+    from hyper_nav_filter.core.gnss import spp
+    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
+    from hyper_nav_filter.core.gnss.receiver_model import ReceiverModel
+    store = EphemerisStore()
+    for _, e in imp.ephemerides:
+        try:
+            store.add(e)
+        except MalformedGnssInput:
+            pass
+    cfg = spp.SppConfig(ReceiverModel(klobuchar=imp.iono or None))
+    eps = [e for e in imp.epochs if (t_from_s is None or imp.stamp_s(e.t_rx_gpst_s) >= t_from_s - 1e-6)
+           and (t_to_s is None or imp.stamp_s(e.t_rx_gpst_s) <= t_to_s + 1e-6)]
+    rows = []
+    for raw, s in zip(eps, spp.solve(eps, store, cfg)):
+        v = spp.solve_velocity(raw, store, cfg, s) if s.valid else None
+        if v is None:
+            continue
+        lat, lon, alt = earth.ecef_to_geodetic(s.pos_ecef_m)
+        R = earth.C_n_e(lat, lon).T
+        rows.append((imp.stamp_s(s.t_rx_gpst_s), lat, lon, alt, R @ s.cov_ecef_m2 @ R.T, v.vel_enu_mps,
+                     v.cov_enu_m2ps2, s.clock_bias_m, v.clock_drift_mps))
+    if not rows:
+        raise ConfigError("gnss: no single-point solution with a Doppler velocity in the window")
+    cols = list(zip(*rows))
+    return SppFixes(*(np.array(c, float) for c in cols))

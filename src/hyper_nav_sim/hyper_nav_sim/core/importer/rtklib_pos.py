@@ -63,7 +63,7 @@ def read_pos(path) -> PosFile:
             t = dd.days * 86400.0 + dd.seconds + dd.microseconds * 1e-6
             vals = [float(x) for x in f[2:]]
             rows.append([t] + vals[:9])
-            vel.append(vals[12:15] if len(vals) >= 15 else [np.nan] * 3)
+            vel.append(vals[13:16] if len(vals) >= 16 else [np.nan] * 3)     # after age (11) and ratio (12)
             counts["epochs"] += 1
         except (ValueError, IndexError):
             counts["malformed_lines"] += 1
