@@ -25,8 +25,11 @@ ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 pytho
     > "$unit_log" 2>&1 &
 unit_pid=$!
 trap 'kill -- -$unit_pid 2>/dev/null; kill $unit_pid 2>/dev/null' INT TERM
-echo "[make test] node-graph tests one at a time; unit tests beside them (nice 19, 2 workers; output below when done)"
-ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph --cpu-top 25 --durations 15 "$@"
+graph_workers=${GRAPH_WORKERS:-1}
+graph_xdist=()
+[ "$graph_workers" -gt 1 ] && graph_xdist=(-n "$graph_workers" --dist loadgroup)
+echo "[make test] node-graph tests on $graph_workers worker(s); unit tests beside them (nice 19, 2 workers; output below when done)"
+ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph "${graph_xdist[@]}" --cpu-top 25 --durations 15 "$@"
 g=$?
 wait $unit_pid
 u=$?
