@@ -5,18 +5,15 @@ coupled, real-signal receiver model, one update per satellite), give the
 same solutions as the offline core over the same bag."""
 import importlib.util
 import pathlib
-import time
 
 import numpy as np
 import pytest
 import yaml
-from hyper_nav_msgs.msg import NavState
 
 from hyper_nav_sim import import_data
 from hyper_nav_sim.core.bag import deserialize, read_bag
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_sim.testing import play_into_fusion
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location(
@@ -65,17 +62,7 @@ def test_walk_log_replays_into_live_fusion_node_as_offline(tmp_path):
     from hyper_nav_filter.offline import run_offline
     sols, eng = run_offline(recs, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources())
     assert eng.kf.stats["pseudorange"][0] > 400 and len(sols) >= 80
-    outputs = {"nav/state": NavState}
-    player = {"bag": str(bag), "rate": 1.0, "topics": INPUTS, "wait_for_subscribers": 1, "publish_clock": False}
-    with Graph(str(sc_file), nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
-        with TopicCollector(outputs, domain_id=g.domain_id) as c:
-            time.sleep(0.5)
-            g.node_params["player"] = player
-            g._spawn("player")
-            assert g.procs["player"].wait(timeout=180) == 0, g.log("player")
-            assert c.wait_for(lambda m: len(m["nav/state"]) >= len(sols), 60.0), \
-                (len(c.messages["nav/state"]), len(sols), g.log("fusion"))
-            live = list(c.messages["nav/state"])[:len(sols)]
+    live = play_into_fusion(sc_file, bag, INPUTS, len(sols))
     for msg, sol in zip(live, sols):
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         assert t == pytest.approx(sol.t_s, abs=1e-6)

@@ -3,20 +3,16 @@ mounting, no initial state, MEMS error model): imported with the alignment
 on the data, the first 15 s after the alignment epoch played by the player
 into a live fusion node give the same solutions as the offline core over
 the same bag (issue 21: live == offline on the real bag)."""
-import time
-
 import numpy as np
 import pytest
 import yaml
-from hyper_nav_msgs.msg import NavState
 
 from hyper_nav_sim import import_data, repro_walk
 from hyper_nav_sim.core.bag import deserialize, read_bag
 from hyper_nav_sim.core.importer import columns, gnss_raw
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import Graph
 from hyper_nav_sim.spp import default_data_dir
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_sim.testing import play_into_fusion
 
 INPUTS = ["/imu/data_raw", "/gnss/raw", "/gnss/ephemeris"]
 SEGMENT_S = 15.0
@@ -45,17 +41,7 @@ def test_aligned_walk_replays_into_live_fusion_node_as_offline(tmp_path):
     from hyper_nav_filter.offline import run_offline
     sols, eng = run_offline(recs, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources())
     assert eng.kf.stats["pseudorange"][0] > 500 and len(sols) >= 100
-    outputs = {"nav/state": NavState}
-    player = {"bag": str(bag), "rate": 1.0, "topics": INPUTS, "wait_for_subscribers": 1, "publish_clock": False}
-    with Graph(str(sc_file), nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
-        with TopicCollector(outputs, domain_id=g.domain_id) as c:
-            time.sleep(0.5)
-            g.node_params["player"] = player
-            g._spawn("player")
-            assert g.procs["player"].wait(timeout=180) == 0, g.log("player")
-            assert c.wait_for(lambda m: len(m["nav/state"]) >= len(sols), 60.0), \
-                (len(c.messages["nav/state"]), len(sols), g.log("fusion"))
-            live = list(c.messages["nav/state"])[:len(sols)]
+    live = play_into_fusion(sc_file, bag, INPUTS, len(sols))
     for msg, sol in zip(live, sols):
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         assert t == pytest.approx(sol.t_s, abs=1e-6)
