@@ -89,7 +89,8 @@ class SimulatedFlight:
         t_end = self.imu.t_s[k1 - 1]
         w = DataWindow(state.copy(), P.copy(), self.imu.t_s[k0:k1].copy(), self.imu.dtheta_b_rad[k0:k1].copy(),
                        self.imu.dvel_b_mps[k0:k1].copy(),
-                       tuple(m for m in self.gnss if t0 < m.t_s <= t_end + 1e-9))
+                       tuple(m for m in self.gnss if t0 < m.t_s <= t_end + 1e-9),
+                       None if self.imu.load_f_b_mps2 is None else self.imu.load_f_b_mps2[k0:k1].copy())
         w.check()
         return w
 
@@ -110,7 +111,6 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
     from hyper_nav_filter.core import earth
     from hyper_nav_filter.core.eskf import ErrorStateKF
     from hyper_nav_filter.core.measurements import ModelContext
-    from hyper_nav_filter.core.nav_state import ImuSample
 
     from .core.lever_arm.replay import config_with_frequencies
 
@@ -119,8 +119,8 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
     lever_b = cfg_w.antenna_lever_arm_b_m
     out, j, t_prev = [], 0, window.t0_s
     for k in range(len(window.imu_t_s)):
-        t = float(window.imu_t_s[k])
-        imu = ImuSample(t, t - t_prev, window.imu_dtheta_b_rad[k], window.imu_dvel_b_mps[k])
+        imu = window.imu_sample(k, t_prev)
+        t = imu.t_s
         kf.predict(imu)
         t_prev = t
         while j < len(window.gnss) and window.gnss[j].t_s <= t + 1e-9:

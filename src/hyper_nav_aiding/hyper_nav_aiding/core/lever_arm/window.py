@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core.nav_state import NavState
+from hyper_nav_filter.core.nav_state import ImuSample, NavState
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,14 @@ class DataWindow:
     imu_dtheta_b_rad: np.ndarray
     imu_dvel_b_mps: np.ndarray
     gnss: tuple
+    # the structure's load per IMU interval (``ImuSample.load_f_b_mps2``, (N, 3) m/s^2), or None
+    imu_load_f_b_mps2: np.ndarray | None = None
+
+    def imu_sample(self, k: int, t_prev_s: float):
+        """The filter's ``ImuSample`` of interval k (previous stamp ``t_prev_s``)."""
+        t = float(self.imu_t_s[k])
+        return ImuSample(t, t - t_prev_s, self.imu_dtheta_b_rad[k], self.imu_dvel_b_mps[k],
+                         None if self.imu_load_f_b_mps2 is None else self.imu_load_f_b_mps2[k])
 
     @property
     def t0_s(self) -> float:

@@ -12,7 +12,9 @@ from hyper_nav_aiding.core.lever_arm.env import LeverArmFrequencyEnv
 def test_max_likelihood_reaches_the_bound(doublet, pm_window_noisy):
     """From 1 % off Table 4 on the ringing window with 5 m / 0.1 m/s fixes,
     maximum likelihood on the innovations lands within 3 sigma of the CRB
-    (CRB 0.10/0.14/1.25 %) and reports that sigma."""
+    (CRB 0.26/0.72/8.4 % with the structure's load known) and reports the
+    information sigma at its estimate (central-difference Fisher information
+    there within 30 %; w3's information changes over its 9 % error)."""
     _, cfg, _ = doublet
     env = LeverArmFrequencyEnv(pm_window_noisy, cfg, TRUE * 1.01)
     res = identifiers.max_likelihood(env, 30, grid_points=0)
@@ -20,7 +22,8 @@ def test_max_likelihood_reaches_the_bound(doublet, pm_window_noisy):
     err = res.freqs_radps - TRUE
     print(f"\nML error {100 * err / TRUE} %, CRB {100 * crb / TRUE} %, {res.n_passes} passes, {res.note}")
     assert np.all(np.abs(err) < 3 * crb)
-    np.testing.assert_allclose(res.sigma_radps, crb, rtol=0.3)
+    np.testing.assert_allclose(res.sigma_radps, fisher_information(pm_window_noisy, cfg, res.freqs_radps).sigma_radps,
+                               rtol=0.3)
     assert res.n_passes <= 31
 
 
