@@ -70,7 +70,8 @@ class SimulatedFlight:
             n = int(np.searchsorted(self.imu.t_s, t0 + 1e-9))
             for k in range(k, n):
                 t = self.imu.t_s[k]
-                eng.add_imu(t, self.imu.dtheta_b_rad[k], self.imu.dvel_b_mps[k])
+                eng.add_imu(t, self.imu.dtheta_b_rad[k], self.imu.dvel_b_mps[k],
+                            None if self.imu.load_f_b_mps2 is None else self.imu.load_f_b_mps2[k])
                 while j < len(self.gnss) and self.gnss[j].t_s <= t + 1e-9:
                     eng.add_measurement(self.gnss[j])
                     j += 1
@@ -153,8 +154,9 @@ def triggered_window(flight: SimulatedFlight, cfg, lc, monitor_from_s: float = -
     imu, j = flight.imu, 0
     for k in range(len(imu.t_s)):
         t = imu.t_s[k]
-        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
-        windows = [mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])]
+        load = None if imu.load_f_b_mps2 is None else imu.load_f_b_mps2[k]
+        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k], load)
+        windows = [mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k], load_f_b_mps2=load)]
         while j < len(flight.gnss) and flight.gnss[j].t_s <= t + 1e-9:
             eng.add_measurement(flight.gnss[j])
             windows.append(mon.add_gnss(flight.gnss[j]))
