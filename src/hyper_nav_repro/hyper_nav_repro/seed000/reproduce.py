@@ -308,8 +308,11 @@ def compare(runs_by_case: dict, log) -> dict:
                 truth = runs[0]["_truth"]
                 ok = [bool(np.all(np.abs(np.array(x["freqs_radps"]) - truth) < 3.0 * np.array(x["sigma_radps"])))
                       for x in sig]
+                conv = [str(x.get("note", "")).startswith("converged") for x in sig]
                 summ[m]["fraction_within_3_reported_sigma"] = float(np.mean(ok))
-                within = f", within 3 reported sigma in {sum(ok)}/{len(ok)}"
+                summ[m]["fraction_converged"] = float(np.mean(conv))
+                within = (f", within 3 reported sigma in {sum(ok)}/{len(ok)} (converged in {sum(conv)}/{len(conv)}; "
+                          "an unconverged sigma is not a bound)")
             log(f"  {case:13s} {m:15s} |error| {_fmt_pct(summ[m]['mean_abs_error_pct'])} mean "
                 f"{summ[m]['mean_error_pct']:8.3f} % (+- {summ[m]['std_of_mean_error_pct']:.3f}) "
                 f"wall {summ[m]['wall_s_mean']:6.1f} s, CPU {summ[m]['cpu_s_mean']:6.1f} s, "
