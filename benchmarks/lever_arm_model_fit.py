@@ -84,6 +84,9 @@ def report(out: dict, dt: float) -> None:
             print(f"{'  minus world':18s} {' '.join(f'{rms(q[:, i] - q_w[:, i]):9.3e}' for i in range(3))} "
                   f"{rms(dv - dv_w):16.3e} {rms(dvel):15.3e} {rms(dpos):15.3e}   "
                   f"(dv rel {rms(dv - dv_w) / rms(dv_w):.3g})")
+            print(f"{'  rel err per mode':18s} "
+                  + " ".join(f"{rms(q[:, i] - q_w[:, i]) / rms(q_w[:, i]):9.3g}" for i in range(3)) + "   q' "
+                  + " ".join(f"{rms(qd[:, i] - qd_w[:, i]) / rms(qd_w[:, i]):9.3g}" for i in range(3)))
 
 
 if __name__ == "__main__":
