@@ -70,7 +70,8 @@ class SimulatedFlight:
             n = int(np.searchsorted(self.imu.t_s, t0 + 1e-9))
             for k in range(k, n):
                 t = self.imu.t_s[k]
-                eng.add_imu(t, self.imu.dtheta_b_rad[k], self.imu.dvel_b_mps[k])
+                eng.add_imu(t, self.imu.dtheta_b_rad[k], self.imu.dvel_b_mps[k],
+                            None if self.imu.load_f_b_mps2 is None else self.imu.load_f_b_mps2[k])
                 while j < len(self.gnss) and self.gnss[j].t_s <= t + 1e-9:
                     eng.add_measurement(self.gnss[j])
                     j += 1
@@ -89,7 +90,8 @@ class SimulatedFlight:
         t_end = self.imu.t_s[k1 - 1]
         w = DataWindow(state.copy(), P.copy(), self.imu.t_s[k0:k1].copy(), self.imu.dtheta_b_rad[k0:k1].copy(),
                        self.imu.dvel_b_mps[k0:k1].copy(),
-                       tuple(m for m in self.gnss if t0 < m.t_s <= t_end + 1e-9))
+                       tuple(m for m in self.gnss if t0 < m.t_s <= t_end + 1e-9),
+                       None if self.imu.load_f_b_mps2 is None else self.imu.load_f_b_mps2[k0:k1].copy())
         w.check()
         return w
 
@@ -110,7 +112,6 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
     from hyper_nav_filter.core import earth
     from hyper_nav_filter.core.eskf import ErrorStateKF
     from hyper_nav_filter.core.measurements import ModelContext
-    from hyper_nav_filter.core.nav_state import ImuSample
 
     from .core.lever_arm.replay import config_with_frequencies
 
@@ -119,8 +120,8 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
     lever_b = cfg_w.antenna_lever_arm_b_m
     out, j, t_prev = [], 0, window.t0_s
     for k in range(len(window.imu_t_s)):
-        t = float(window.imu_t_s[k])
-        imu = ImuSample(t, t - t_prev, window.imu_dtheta_b_rad[k], window.imu_dvel_b_mps[k])
+        imu = window.imu_sample(k, t_prev)
+        t = imu.t_s
         kf.predict(imu)
         t_prev = t
         while j < len(window.gnss) and window.gnss[j].t_s <= t + 1e-9:
@@ -153,8 +154,9 @@ def triggered_window(flight: SimulatedFlight, cfg, lc, monitor_from_s: float = -
     imu, j = flight.imu, 0
     for k in range(len(imu.t_s)):
         t = imu.t_s[k]
-        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
-        windows = [mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])]
+        load = None if imu.load_f_b_mps2 is None else imu.load_f_b_mps2[k]
+        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k], load)
+        windows = [mon.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k], load_f_b_mps2=load)]
         while j < len(flight.gnss) and flight.gnss[j].t_s <= t + 1e-9:
             eng.add_measurement(flight.gnss[j])
             windows.append(mon.add_gnss(flight.gnss[j]))

@@ -242,7 +242,7 @@ class ErrorStateKF:
         take float64 arrays (any layout); anything else is converted here."""
         a, b = imu.dtheta_b_rad, imu.dvel_b_mps
         if type(a) is not np.ndarray or type(b) is not np.ndarray or a.dtype is not _F64 or b.dtype is not _F64:
-            imu = ImuSample(imu.t_s, imu.dt_s, np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
+            imu = imu._replace(dtheta_b_rad=np.asarray(a, dtype=np.float64), dvel_b_mps=np.asarray(b, dtype=np.float64))
         vals = new_vals = self.values
         if self._preprocessors:
             dt = imu.dt_s
@@ -255,8 +255,8 @@ class ErrorStateKF:
                 w_prev = None
             new_vals = vals.copy()
             for blk, s in self._preprocessors:
-                dv_remove, new_vals[s] = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, True)
-                imu = ImuSample(imu.t_s, dt, imu.dtheta_b_rad, imu.dvel_b_mps - dv_remove)
+                dv_remove, new_vals[s] = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, True, imu.load_f_b_mps2)
+                imu = imu._replace(dvel_b_mps=imu.dvel_b_mps - dv_remove)
         self.x_nav, self.P, Phi = self.frame.fast_predict(self.x_nav, self.t_s, vals, self.P, imu,
                                                           self.imu_prev, self.sys)
         for blk, s in self._propagated:
@@ -286,8 +286,8 @@ class ErrorStateKF:
             wdot = (dth / dt - w_prev) / dt
         new_vals = vals
         for blk, s in self._preprocessors:
-            dv_remove, v1 = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, self.fast)
-            imu = ImuSample(imu.t_s, dt, imu.dtheta_b_rad, imu.dvel_b_mps - dv_remove)
+            dv_remove, v1 = blk.preprocess(vals[s], dth, dv, w_prev, dt, self.cfg, self.fast, imu.load_f_b_mps2)
+            imu = imu._replace(dvel_b_mps=imu.dvel_b_mps - dv_remove)
             dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, vals)
             new_vals = new_vals.copy() if new_vals is vals else new_vals
             new_vals[s] = v1

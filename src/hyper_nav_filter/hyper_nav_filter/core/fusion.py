@@ -165,15 +165,16 @@ class FusionEngine:
         return self._last_released_t
 
     # ---- inputs -------------------------------------------------------------------
-    def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps) -> tuple[bool, str]:
-        """Add an IMU sample stamped at the end of its interval. Returns
-        (accepted, reason); rejected samples are counted, never raised."""
+    def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps, load_f_b_mps2=None) -> tuple[bool, str]:
+        """Add an IMU sample stamped at the end of its interval; ``load_f_b_mps2``
+        the structure's load over it when a source gives it (``ImuSample``).
+        Returns (accepted, reason); rejected samples are counted, never raised."""
         dth = _vec(dtheta_b_rad)
         dv = _vec(dvel_b_mps)
         ok, reason = self._check_imu_time(t_s, dth, dv)
         if not ok:
             return ok, reason
-        self._accept_imu(t_s, dth, dv)
+        self._accept_imu(t_s, dth, dv, load=None if load_f_b_mps2 is None else _vec(load_f_b_mps2))
         return True, "ok"
 
     def add_imu_rates(self, t_s: float, omega_b_radps, f_b_mps2) -> tuple[bool, str]:
@@ -199,7 +200,7 @@ class FusionEngine:
             return self._reject("imu_out_of_order")
         return True, "ok"
 
-    def _accept_imu(self, t_s, dth, dv, rates=None) -> None:
+    def _accept_imu(self, t_s, dth, dv, rates=None, load=None) -> None:
         dt = t_s - self.t_latest_s
         if dt > self.cfg.imu_gap_s and self._last_dt is not None:
             # the new sample covers its own (nominal) interval: rates given, or increments / nominal interval
@@ -209,7 +210,7 @@ class FusionEngine:
             dth, dv = w1 * dt, f1 * dt
         if self._dirty_from != math.inf:
             self._catch_up()
-        self._append_epoch(ImuSample(t_s, dt, dth, dv))
+        self._append_epoch(ImuSample(t_s, dt, dth, dv, load))
         self._last_dt = dt
         self.counters["imu_accepted"] += 1
         if self._times[self._n_out_of_window] < t_s - self.cfg.reprocess_window_s:

@@ -22,8 +22,10 @@ def test_short_mode_writes_every_part(tmp_path, capsys):
     table2 = np.array(PAPER["initial_radps"])
     assert np.all(np.abs(np.array(run["learned_radps"]) / table2 - 1) <= 0.25 + 1e-9)      # the search box
     assert run["n_passes"] == 2 * 5 + 1 + 7 and len(run["episode_rewards_m"]) == 2
-    for case in ("paper", "excited"):
+    for case in ("paper", "excited", "excited_world"):
         assert set(r["compare"][case]["summary"]) == {"ddpg", "cmaes", "nelder_mead", "max_likelihood"}
+        assert r["compare"][case]["data"].startswith("simulator world" if case != "excited" else "perfect-model")
+        assert all(v["data"] == r["compare"][case]["data"] for v in r["compare"][case]["summary"].values())
     nav = r["navigation"]["runs"]
     assert set(nav) == {"KF-FLAC (rigid r0)", "DLAC, Table 2", "RL-DLAC"}
     assert all(v["rms_3d"]["pos"] < 10.0 for v in nav.values())

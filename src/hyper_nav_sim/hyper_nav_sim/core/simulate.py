@@ -24,6 +24,10 @@ class ImuStream:
     dt_s: float
     dtheta_b_rad: np.ndarray
     dvel_b_mps: np.ndarray
+    # with the elastic lever arm on: the lever-arm-free specific force at the CG, mean over each
+    # interval (body FLU, m/s^2), whose body-z part loads the structure (F_n = m f_b,z,
+    # ``lever_arm.normal_force_from_trajectory``): the known input u_q of seed 000 eq. 22
+    load_f_b_mps2: np.ndarray | None = None
 
 
 def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
@@ -31,20 +35,23 @@ def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
     acceleration (seed 000 eq. 1) is added to the accelerometers before the
     sensor errors, integrated as ``world.lever_arm`` says (the simulator's
     own Runge-Kutta in the realistic world, the filter's discretisation in
-    the perfect-model one)."""
+    the perfect-model one), and the structure's load (the CG specific force)
+    is returned beside them (``ImuStream.load_f_b_mps2``)."""
     dt = 1.0 / sc["imu.rate_hz"]
     t = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
     dth, dv = traj.imu_increments(t, dt)
     if error_free:
         return ImuStream(t, dt, dth, dv)
+    load = None
     if "lever_arm" in sc.data:
         cfg = LeverArmConfig.from_config(sc.data["lever_arm"])
         if cfg.enabled:
             world = sc.world_config()
+            load = dv / dt
             dv = add_lever_arm_to_increments(dv, t, dt, traj, cfg, rng=sc.rng("lever_arm"),
                                              integrator=world.lever_arm_integrator, step_s=world.lever_arm_step_s)
     dth, dv = corrupt_increments(dth, dv, dt, ImuErrors.from_scenario(sc), sc.rng("imu"))
-    return ImuStream(t, dt, dth, dv)
+    return ImuStream(t, dt, dth, dv, load)
 
 
 def gnss_receiver(sc: Scenario):

@@ -37,9 +37,11 @@ class ReestimationMonitor:
         self._held: deque = deque()             # (state, P) waiting for their inputs
         self._next_state_t = -np.inf
 
-    def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps, busy: bool = False) -> DataWindow | None:
-        """An IMU increment; the window to re-estimate if a held state became due."""
-        self.buffer.add_imu(t_s, dtheta_b_rad, dvel_b_mps)
+    def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps, busy: bool = False,
+                load_f_b_mps2=None) -> DataWindow | None:
+        """An IMU increment (with the structure's load when a source gives it);
+        the window to re-estimate if a held state became due."""
+        self.buffer.add_imu(t_s, dtheta_b_rad, dvel_b_mps, load_f_b_mps2)
         return self._drain(busy)
 
     def add_gnss(self, meas, busy: bool = False) -> DataWindow | None:

@@ -24,7 +24,6 @@ import numpy as np
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.eskf import ErrorStateKF
 from hyper_nav_filter.core.measurements import ModelContext
-from hyper_nav_filter.core.nav_state import ImuSample
 
 from .window import DataWindow
 
@@ -76,8 +75,8 @@ def replay(window: DataWindow, cfg: FilterConfig, freqs_radps) -> WindowPass:
     t_prev = window.t0_s
     last_pos = None
     for k in range(len(window.imu_t_s)):
-        t = float(window.imu_t_s[k])
-        imu = ImuSample(t, t - t_prev, window.imu_dtheta_b_rad[k], window.imu_dvel_b_mps[k])
+        imu = window.imu_sample(k, t_prev)
+        t = imu.t_s
         kf.predict(imu)
         t_prev = t
         while j < len(gnss) and gnss[j].t_s <= t + 1e-9:

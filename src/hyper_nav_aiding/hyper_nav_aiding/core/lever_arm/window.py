@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core.nav_state import NavState
+from hyper_nav_filter.core.nav_state import ImuSample, NavState
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,14 @@ class DataWindow:
     imu_dtheta_b_rad: np.ndarray
     imu_dvel_b_mps: np.ndarray
     gnss: tuple
+    # the structure's load per IMU interval (``ImuSample.load_f_b_mps2``, (N, 3) m/s^2), or None
+    imu_load_f_b_mps2: np.ndarray | None = None
+
+    def imu_sample(self, k: int, t_prev_s: float):
+        """The filter's ``ImuSample`` of interval k (previous stamp ``t_prev_s``)."""
+        t = float(self.imu_t_s[k])
+        return ImuSample(t, t - t_prev_s, self.imu_dtheta_b_rad[k], self.imu_dvel_b_mps[k],
+                         None if self.imu_load_f_b_mps2 is None else self.imu_load_f_b_mps2[k])
 
     @property
     def t0_s(self) -> float:
@@ -67,16 +75,19 @@ class WindowBuffer:
         if capacity_s <= 0:
             raise ValueError("capacity_s must be > 0")
         self.capacity_s = float(capacity_s)
-        self._imu: deque = deque()          # (t, dtheta, dvel)
+        self._imu: deque = deque()          # (t, dtheta, dvel, structural load or None)
         self._gnss: deque = deque()         # measurement objects (t_s)
         self._states: deque = deque()       # (t, NavState, P)
         self._t_ref = None                  # trim reference (advance); None: the newest IMU sample
 
-    def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps) -> bool:
-        """Append an IMU sample; False (ignored) when not after the last one."""
+    def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps, load_f_b_mps2=None) -> bool:
+        """Append an IMU sample (``load_f_b_mps2``: the structure's load over
+        it, ``ImuSample``, when a source gives it); False (ignored) when not
+        after the last one."""
         if self._imu and t_s <= self._imu[-1][0]:
             return False
-        self._imu.append((float(t_s), np.asarray(dtheta_b_rad, float), np.asarray(dvel_b_mps, float)))
+        self._imu.append((float(t_s), np.asarray(dtheta_b_rad, float), np.asarray(dvel_b_mps, float),
+                          None if load_f_b_mps2 is None else np.asarray(load_f_b_mps2, float)))
         self._trim()
         return True
 
@@ -135,5 +146,6 @@ class WindowBuffer:
         gnss = tuple(m for m in self._gnss if t0 < m.t_s <= t_end + 1e-9)
         if len(imu) < 2 or not gnss or imu[0][0] - t0 > 2.0 * (imu[1][0] - imu[0][0]):
             return None
+        load = np.array([x[3] for x in imu]) if all(x[3] is not None for x in imu) else None
         return DataWindow(state.copy(), P.copy(), np.array([x[0] for x in imu]),
-                          np.array([x[1] for x in imu]), np.array([x[2] for x in imu]), gnss)
+                          np.array([x[1] for x in imu]), np.array([x[2] for x in imu]), gnss, load)

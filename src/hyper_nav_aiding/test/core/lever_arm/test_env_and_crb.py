@@ -15,14 +15,16 @@ from hyper_nav_sim.core.scenario import load_scenario
 
 def test_reward_is_at_its_maximum_with_the_true_frequencies(doublet, pm_window):
     """Data consistent with the filter's model at Table 4: reward 0 m there,
-    below it 1 % and 5 % off each frequency, and at the Table 2 start."""
+    below it 1 % and 5 % off each frequency (by > 2 mm for w1, w2, measured
+    3.6-47 mm; by > 0.1 mm for w3, measured 0.16-0.82 mm: with the structure's
+    load known the third mode rings little in 1.5 s), and at the Table 2 start."""
     _, cfg, _ = doublet
     env = LeverArmFrequencyEnv(pm_window, cfg, INITIAL)
     r_true = env.evaluate(TRUE)
     assert r_true == pytest.approx(0.0, abs=1e-6)
-    for i in range(3):
+    for i, margin in enumerate((2e-3, 2e-3, 1e-4)):
         for d in (-0.05, -0.01, 0.01, 0.05):
-            assert env.evaluate(TRUE * (1 + d * np.eye(3)[i])) < r_true - 2e-4, (i, d)
+            assert env.evaluate(TRUE * (1 + d * np.eye(3)[i])) < r_true - margin, (i, d)
     assert env.evaluate(INITIAL) < -0.01
     assert env.n_passes == 14
 
@@ -42,13 +44,14 @@ def test_gymnasium_api_and_search_box(doublet, pm_window):
 
 def test_cramer_rao_bound_where_the_modes_ring(doublet, pm_window_noisy):
     """A ringing window with 5 m / 0.1 m/s fixes: every frequency is bounded
-    (1 s window: w1, w2 < 1 %, w3 < 5 %; measured 0.10/0.14/1.25 %), the
+    (1.5 s window: w1, w2 < 1 %, w3 < 15 %; measured 0.26/0.72/8.4 % with the
+    structure's load known, issue 24), the
     information comes from the velocity fixes, and the central differences
     are in their linear range (1e-3 and 1e-4 steps agree within 2 %)."""
     _, cfg, _ = doublet
     c = fisher_information(pm_window_noisy, cfg, TRUE)
     print(f"\nCRB {100 * c.sigma_rel} %")
-    assert np.all(100 * c.sigma_rel < [1.0, 1.0, 5.0])
+    assert np.all(100 * c.sigma_rel < [1.0, 1.0, 15.0])
     fv, fp = np.diag(c.fisher_by_kind["gnss_vel"]), np.diag(c.fisher_by_kind["gnss_pos"])
     assert np.all(fv > 10 * fp)
     c4 = fisher_information(pm_window_noisy, cfg, TRUE, rel_step=1e-4)

@@ -12,7 +12,9 @@ from hyper_nav_aiding.core.lever_arm.env import LeverArmFrequencyEnv
 def test_max_likelihood_reaches_the_bound(doublet, pm_window_noisy):
     """From 1 % off Table 4 on the ringing window with 5 m / 0.1 m/s fixes,
     maximum likelihood on the innovations lands within 3 sigma of the CRB
-    (CRB 0.10/0.14/1.25 %) and reports that sigma."""
+    (CRB 0.26/0.72/8.4 % with the structure's load known) and reports the
+    information sigma at its estimate (central-difference Fisher information
+    there within 30 %; w3's information changes over its 9 % error)."""
     _, cfg, _ = doublet
     env = LeverArmFrequencyEnv(pm_window_noisy, cfg, TRUE * 1.01)
     res = identifiers.max_likelihood(env, 30, grid_points=0)
@@ -20,7 +22,8 @@ def test_max_likelihood_reaches_the_bound(doublet, pm_window_noisy):
     err = res.freqs_radps - TRUE
     print(f"\nML error {100 * err / TRUE} %, CRB {100 * crb / TRUE} %, {res.n_passes} passes, {res.note}")
     assert np.all(np.abs(err) < 3 * crb)
-    np.testing.assert_allclose(res.sigma_radps, crb, rtol=0.3)
+    np.testing.assert_allclose(res.sigma_radps, fisher_information(pm_window_noisy, cfg, res.freqs_radps).sigma_radps,
+                               rtol=0.3)
     assert res.n_passes <= 31
 
 
@@ -80,3 +83,66 @@ def test_a_box_edge_answer_is_never_reported_converged(monkeypatch):
     assert res.freqs_radps[2] == 120.0
     assert res.note.startswith("on the box edge (frequency 3)") and "converged" not in res.note.replace(
         "not converged", ""), res.note
+
+
+def test_global_stage_reports_a_box_edge_optimum(monkeypatch):
+    """With the global stage on (sweeps and three starts) the answer for an
+    optimum beyond the box is still the box edge, said so, never "converged"."""
+    _with_quadratic(monkeypatch, _Quadratic([20.0, 57.0, 150.0], np.diag([4.0, 1.0, 0.25])))
+    res = identifiers.max_likelihood(_Env([21.0, 55.0, 95.0], [15.0, 40.0, 70.0], [30.0, 70.0, 120.0]), 300,
+                                     grid_points=11, sweeps=2, n_starts=3)
+    assert res.freqs_radps[2] == 120.0
+    assert res.note.startswith("on the box edge (frequency 3)"), res.note
+
+
+def test_global_stage_finds_the_interior_optimum_from_far_off(monkeypatch):
+    """A start 20 % off every frequency: the sweeps bring it into the basin
+    and the local stage converges on the optimum with its information sigma."""
+    info = np.diag([4.0, 1.0, 0.25])
+    _with_quadratic(monkeypatch, _Quadratic([18.0, 64.0, 80.0], info))
+    res = identifiers.max_likelihood(_Env([22.0, 52.0, 100.0], [15.0, 40.0, 70.0], [30.0, 70.0, 120.0]), 300,
+                                     grid_points=11, sweeps=2, n_starts=3)
+    assert res.note.startswith("converged"), res.note
+    np.testing.assert_allclose(res.freqs_radps, [18.0, 64.0, 80.0], atol=1e-6)
+    np.testing.assert_allclose(res.sigma_radps, [0.5, 1.0, 2.0], rtol=1e-9)
+
+
+def test_max_likelihood_on_the_simulators_own_data():
+    """Issue 24: the doublet flight of the simulator's world (RK4 modes,
+    noisy IMU, 2 cm / 5 mm/s fixes, seed 0, Table 4 frequencies), a 1.5 s
+    window, the issue's initial guesses (+8 / -10 / +12 %), box +-25 %.
+
+    Before the fix (the measured force as the modes' load) the likelihood was
+    lower at the box edges than at the truth (issue: 6.4e6 on the paper's
+    windows); now the truth is far better than the issue's edge answer (w1
+    0.81x, w2 1.125x the truth). Maximum likelihood (sweeps + 3 starts)
+    converges inside the box; w1 and w2 within 3 of its reported sigma
+    (measured 2.8 and 2.6 sigma: 0.047 / -0.108 % against 0.017 / 0.041 %).
+    w3 is biased by the filter's ZOH of the interval-mean load on a 113 rad/s
+    mode at 50 Hz (lever-arm increments 4 % RMS off the RK4 world; the same
+    run on the ZOH world is within 3 sigma): measured -0.74 % here (2.0
+    sigma), -1.6 % (5.2 sigma) with seed 1, so asserted within 2 %."""
+    import dataclasses
+    from hyper_nav_aiding.core.lever_arm.replay import replay
+    from hyper_nav_aiding.sim_windows import SimulatedFlight, start_window
+    from .conftest import doublet_scenario
+    sc = doublet_scenario(2.0)
+    sc.data["seed"] = 0
+    sc.data["gnss"]["pos_sigma_enu_m"] = [0.02] * 3
+    sc.data["gnss"]["vel_sigma_enu_mps"] = [0.005] * 3
+    assert sc.world_config().lever_arm_integrator == "rk4"
+    cfg = sc.filter_config()
+    window = start_window(SimulatedFlight.from_scenario(sc), cfg, 1.5)
+    ungated = dataclasses.replace(cfg, gate_probability=1.0)
+    nll_true = replay(window, ungated, TRUE).neg_log_likelihood()
+    nll_edge = replay(window, ungated, TRUE * [0.81, 1.125, 1.0]).neg_log_likelihood()
+    assert nll_edge - nll_true > 1e4, (nll_true, nll_edge)
+    env = LeverArmFrequencyEnv(window, cfg, TRUE * [1.08, 0.90, 1.12])
+    res = identifiers.max_likelihood(env, 900, grid_points=41, sweeps=3, n_starts=3)
+    err = res.freqs_radps - TRUE
+    print(f"\nNLL truth {nll_true:.1f}, issue's edge {nll_edge:.1f}; ML error {100 * err / TRUE} %, sigma "
+          f"{100 * res.sigma_radps / TRUE} %, {res.n_passes} passes, {res.wall_s:.1f} s, {res.note}")
+    assert res.note.startswith("converged"), res.note
+    assert np.all(np.abs(err[:2]) < 3.0 * res.sigma_radps[:2])
+    assert abs(err[2]) < 0.02 * TRUE[2]
+    assert np.all(res.sigma_radps / TRUE < [0.001, 0.002, 0.02])

@@ -100,8 +100,9 @@ class Block:
         return value
 
     # Optional IMU pre-processing (see blocks.lever_arm): a block with
-    # ``preprocess(value, dtheta_c, dvel_c, w_prev, dt, cfg, fast)`` returns
-    # (velocity increment to remove from the raw one, new value).
+    # ``preprocess(value, dtheta_c, dvel_c, w_prev, dt, cfg, fast, load_f_b_mps2)`` returns
+    # (velocity increment to remove from the raw one, new value); ``load_f_b_mps2`` is the
+    # sample's structural load (``ImuSample.load_f_b_mps2``, None when no source gives it).
     preprocess = None
 
 

@@ -92,19 +92,27 @@ class ElasticLeverArm(Block):
     def noise(self, cfg):
         return (NoiseInput("w_lev", np.full(3, cfg.lever_arm_modal_psd), "self", np.vstack([Z3, I3])),)
 
-    def preprocess(self, value, dtheta_c_b_rad, dvel_c_b_mps, w_prev_radps, dt_s, cfg, fast: bool = True):
+    def preprocess(self, value, dtheta_c_b_rad, dvel_c_b_mps, w_prev_radps, dt_s, cfg, fast: bool = True,
+                   load_f_b_mps2=None):
         """Dynamic lever-arm compensation (seed 000 Fig. 3) of one IMU interval:
-        step the nominal modes under the measured load and return (the lever-arm
+        step the nominal modes under the load and return (the lever-arm
         velocity increment to remove from the raw increment, modes at the end).
         ``dtheta_c``/``dvel_c`` are bias-corrected; ``w_prev`` the corrected mean
-        rate of the previous interval (None at the first). ``fast``: the compiled
-        form (core.fast.lever), else the reference ``LeverArmCompensator``."""
+        rate of the previous interval (None at the first). ``load_f_b_mps2``: the
+        lever-arm-free specific force loading the structure (eqs. 4-6, the known
+        input of eq. 22; ``ImuSample.load_f_b_mps2``), else None: the measured
+        one (``LeverArmCompensator``'s doc says what that costs). ``fast``: the
+        compiled form (core.fast.lever), else the reference ``LeverArmCompensator``."""
+        load = None if load_f_b_mps2 is None else np.asarray(load_f_b_mps2, dtype=np.float64)
         if fast:        # the compiled form starts unset (NaN) modes at the static deflection itself
-            return fast_lever.compensate(np.ascontiguousarray(value), dtheta_c_b_rad, dvel_c_b_mps, float(dt_s),
+            # (its ``dv`` argument is used for the load only)
+            return fast_lever.compensate(np.ascontiguousarray(value), dtheta_c_b_rad,
+                                         dvel_c_b_mps if load is None else load * float(dt_s), float(dt_s),
                                          _ZERO3 if w_prev_radps is None else w_prev_radps, w_prev_radps is not None,
                                          _fast_model(cfg))
         m = modal_model(cfg)
         if not np.all(np.isfinite(value)):          # first interval: static deflection
-            value = m.equilibrium(dvel_c_b_mps / dt_s)
-        dv_cg, lev1, _, _ = LeverArmCompensator(m).compensate(value, dtheta_c_b_rad, dvel_c_b_mps, dt_s, w_prev_radps)
+            value = m.equilibrium(dvel_c_b_mps / dt_s if load is None else load)
+        dv_cg, lev1, _, _ = LeverArmCompensator(m).compensate(value, dtheta_c_b_rad, dvel_c_b_mps, dt_s, w_prev_radps,
+                                                              load)
         return dvel_c_b_mps - dv_cg, lev1
