@@ -35,8 +35,9 @@ def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
     acceleration (seed 000 eq. 1) is added to the accelerometers before the
     sensor errors, integrated as ``world.lever_arm`` says (the simulator's
     own Runge-Kutta in the realistic world, the filter's discretisation in
-    the perfect-model one), and the structure's load (the CG specific force)
-    is returned beside them (``ImuStream.load_f_b_mps2``)."""
+    the perfect-model one), and the structure's load (the CG specific force,
+    as measured: ``_measured_load``) is returned beside them
+    (``ImuStream.load_f_b_mps2``)."""
     dt = 1.0 / sc["imu.rate_hz"]
     t = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
     dth, dv = traj.imu_increments(t, dt)
@@ -47,11 +48,23 @@ def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
         cfg = LeverArmConfig.from_config(sc.data["lever_arm"])
         if cfg.enabled:
             world = sc.world_config()
-            load = dv / dt
+            load = _measured_load(dth, dv, dt, sc)
             dv = add_lever_arm_to_increments(dv, t, dt, traj, cfg, rng=sc.rng("lever_arm"),
                                              integrator=world.lever_arm_integrator, step_s=world.lever_arm_step_s)
     dth, dv = corrupt_increments(dth, dv, dt, ImuErrors.from_scenario(sc), sc.rng("imu"))
     return ImuStream(t, dt, dth, dv, load)
+
+
+def _measured_load(dth_b_rad, dv_b_mps, dt_s: float, sc: Scenario) -> np.ndarray:
+    """The structure's load as the filter may know it: the lever-arm-free
+    specific force (seed 000 eqs. 4-6, the known input of eq. 22) measured
+    by a second accelerometer triad at the structure's rigid root, of the
+    navigation IMU's grade (the scenario's ``imu`` accelerometer errors:
+    bias, noise, scale factor, misalignment, Markov) with its own noise
+    draw (stream ``structure_load``). The filter never gets the exact
+    force: handing it the truth would make the world the filter's model."""
+    _, dv_meas = corrupt_increments(dth_b_rad, dv_b_mps, dt_s, ImuErrors.from_scenario(sc), sc.rng("structure_load"))
+    return dv_meas / dt_s
 
 
 def gnss_receiver(sc: Scenario):
