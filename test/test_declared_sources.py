@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from hyper_nav_msgs.msg import NavState
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix, NavSatStatus
@@ -23,6 +24,17 @@ pytestmark = pytest.mark.graph
 
 FIX_SIGMA_M = 20.0
 DURATION_S = 20.0
+
+
+def _processed_fixes(diagnostics) -> int:
+    """The fusion node's latest 'processed test/fix' count on /diagnostics (0 before any)."""
+    for arr in reversed(diagnostics):
+        for st in arr.status:
+            if st.name == "hyper_nav_filter: fusion":
+                for kv in st.values:
+                    if kv.key == "processed test/fix":
+                        return int(kv.value)
+    return 0
 
 
 def fix_from_truth(truth: NavState, rng) -> NavSatFix:
@@ -57,7 +69,8 @@ def test_baro_and_a_test_node_fixes_reach_the_filter_by_configuration(tmp_path, 
     # no fix is published before its readers match or later than the filter's window allows
     with Graph("seed003", record=bag, overrides=overrides, extra_subscribers={"truth/state": 1, "/clock": 1},
                log_dir=tmp_path / f"{frame}_logs") as g:
-        with TopicCollector({"truth/state": NavState}, domain_id=g.domain_id, name="fix_source") as c:
+        with TopicCollector({"truth/state": NavState, "/diagnostics": DiagnosticArray}, domain_id=g.domain_id,
+                            name="fix_source") as c:
             pub = c.publisher(NavSatFix, "test/fix")
             truth = g.procs["truth"]
             matched_at, ready = None, False
@@ -72,11 +85,14 @@ def test_baro_and_a_test_node_fixes_reach_the_filter_by_configuration(tmp_path, 
                     with c._lock:
                         msgs = list(c.messages["truth/state"])
                     for m in msgs[sent:]:
-                        if m.header.stamp.nanosec == 0 and m.header.stamp.sec > 0:     # a 1 Hz fix source
+                        # a 1 Hz fix source, none at the flight's last epoch (published there, a fix races the end)
+                        if m.header.stamp.nanosec == 0 and 0 < m.header.stamp.sec < DURATION_S:
                             pub.publish(fix_from_truth(m, rng))
                             n_fixes += 1
                     sent = len(msgs)
                 time.sleep(0.02)
+            # stop the graph once the filter has taken every fix sent (its /diagnostics say so), not sooner
+            c.wait_for(lambda m: _processed_fixes(m["/diagnostics"]) >= n_fixes, 30.0)
             g.wait_until_done()
     run = load_run(bag)
     for topic, d in delivery_check(run).items():

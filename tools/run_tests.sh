@@ -3,12 +3,13 @@
 # 2 cores:
 #   * the node-graph tests (marker `graph`: real node processes over DDS,
 #     paced by the simulated clock, which waits for the nodes it must not
-#     outrun: hyper_nav_filter.clock_gate) one at a time, at normal priority;
-#     a graph run uses about 0.6 of the 2 cores on average (measured: two
-#     graph lanes at once saturate the cores and starve the unit lane, for
-#     no gain in total time);
+#     outrun: hyper_nav_filter.clock_gate) on GRAPH_WORKERS pytest-xdist
+#     workers (default 2; one test file per worker), at normal priority. A
+#     graph run is mostly waiting (discovery, pacing, drains: about 0.6 of a
+#     core), so two at once nearly halve the lane (measured on a fresh clone:
+#     one worker 996-1145 s, two 479 s; 9.0 CPU-min either way);
 #   * beside them, the unit tests on two pytest-xdist workers at nice 19: they
-#     take the CPU the graphs leave idle.
+#     take the CPU the graphs leave idle (about 6 CPU-min).
 # Each lane and each worker has its own ROS domain (a block of six derived
 # from this shell's pid), so nothing crosses between lanes or with another
 # suite running on the machine. Each lane ends with its slowest tests (wall)
@@ -25,7 +26,7 @@ ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 pytho
     > "$unit_log" 2>&1 &
 unit_pid=$!
 trap 'kill -- -$unit_pid 2>/dev/null; kill $unit_pid 2>/dev/null' INT TERM
-graph_workers=${GRAPH_WORKERS:-1}
+graph_workers=${GRAPH_WORKERS:-2}
 graph_xdist=()
 [ "$graph_workers" -gt 1 ] && graph_xdist=(-n "$graph_workers" --dist loadgroup)
 echo "[make test] node-graph tests on $graph_workers worker(s); unit tests beside them (nice 19, 2 workers; output below when done)"
