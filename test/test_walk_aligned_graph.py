@@ -6,6 +6,7 @@ the same bag (issue 21: live == offline on the real bag)."""
 import numpy as np
 import pytest
 import yaml
+from tf2_msgs.msg import TFMessage
 
 from hyper_nav_sim import import_data, repro_walk
 from hyper_nav_sim.core.bag import deserialize, read_bag
@@ -35,13 +36,21 @@ def test_aligned_walk_replays_into_live_fusion_node_as_offline(tmp_path):
     filt["initial_state"].setdefault("accel_bias_ug", [0.0, 0.0, 0.0])       # written out: nothing is drawn
     sc_file = tmp_path / "walk_aligned.yaml"
     sc_file.write_text(yaml.safe_dump({"extends": str(repro_walk.walk_yaml().parents[1] / "scenarios" / "default.yaml"),
-                                       "name": "walk_aligned", "filter": filt}))
+                                       "name": "walk_aligned", "filter": filt,
+                                       "imu": {"mounting_b_xyzw": list(imported["imu"].mounting_b_xyzw)}}))
     sc = load_scenario(str(sc_file))
     recs = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)]
     from hyper_nav_filter.offline import run_offline
     sols, eng = run_offline(recs, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources())
     assert eng.kf.stats["pseudorange"][0] > 500 and len(sols) >= 100
-    live = play_into_fusion(sc_file, bag, INPUTS, len(sols))
+    also = {"/tf_static": TFMessage}
+    live = play_into_fusion(sc_file, bag, INPUTS, len(sols), also=also, latched=("/tf_static",))
+    # the mounting the importer applied, on /tf_static: base_link -> imu_link rotated by it
+    (imu_tf,) = [t for m in also["/tf_static"] for t in m.transforms if t.child_frame_id == "imu_link"]
+    r = imu_tf.transform.rotation
+    q_expected = np.asarray(imported["imu"].mounting_b_xyzw)
+    assert abs(np.dot([r.x, r.y, r.z, r.w], q_expected)) == pytest.approx(1.0, abs=1e-9)
+    assert abs(q_expected[3]) < 0.99                                                  # a real rotation (180/0/-90)
     for msg, sol in zip(live, sols):
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
         assert t == pytest.approx(sol.t_s, abs=1e-6)

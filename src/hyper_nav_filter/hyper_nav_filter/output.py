@@ -141,13 +141,16 @@ def transform_fields(sol: Solution, frames: OutputFrames, pose=None) -> dict:
     return d
 
 
-def static_transform_fields(t_s: float, parent: str, child: str, position_m) -> dict:
+def static_transform_fields(t_s: float, parent: str, child: str, position_m,
+                            rotation_xyzw=(0.0, 0.0, 0.0, 1.0)) -> dict:
     """A sensor frame fixed in the body: translation = its lever arm (parent
-    axes, m), axes parallel to the parent's."""
+    axes, m); rotation = the child's axes in the parent's (unit quaternion
+    x, y, z, w: v_parent = R v_child), parallel by default."""
     d = _header(t_s, parent)
+    qx, qy, qz, qw = (float(v) for v in rotation_xyzw)
     d.update({"child_frame_id": child,
               "transform.translation.x": float(position_m[0]), "transform.translation.y": float(position_m[1]),
               "transform.translation.z": float(position_m[2]),
-              "transform.rotation.x": 0.0, "transform.rotation.y": 0.0, "transform.rotation.z": 0.0,
-              "transform.rotation.w": 1.0})
+              "transform.rotation.x": qx, "transform.rotation.y": qy, "transform.rotation.z": qz,
+              "transform.rotation.w": qw})
     return d

@@ -131,6 +131,7 @@ def fusion_parameters(sc: Scenario) -> dict:
     params.update({f"init.{k}": v for k, v in sc.filter_initial_values().items()})
     params.update({
         "tf.magnetometer_position_b_m": [float(x) for x in sc["magnetometer.lever_arm_b_m"]],
+        "tf.imu_rotation_b_xyzw": [float(x) for x in sc["imu.mounting_b_xyzw"]],
         "origin.lat_deg": float(np.rad2deg(start.lat_rad[0])), "origin.lon_deg": float(np.rad2deg(start.lon_rad[0])),
         "origin.alt_m": float(start.alt_m[0]), "qos.depth": int(sc["graph.qos_depth"]),
     })

@@ -411,7 +411,8 @@ def main(argv=None) -> int:
     imu = imported["imu"]
     if imu is not None:
         span = imu.t_s[-1] - imu.t_s[0]
-        print(f"[import_data] imu: {span:.1f} s of data from t = {imu.t_s[0]:.3f} s")
+        print(f"[import_data] imu: {span:.1f} s of data from t = {imu.t_s[0]:.3f} s; its axes in the body "
+              f"(scenario imu.mounting_b_xyzw, on /tf_static): {[round(v, 9) for v in imu.mounting_b_xyzw]}")
     print(f"[import_data] {args.out}: " + ", ".join(f"{t} {n}" for t, n in counts.items()))
     if imported["setup"] is not None:
         print(f"[import_data] filter setup: {pathlib.Path(args.out) / 'filter.yaml'}; "

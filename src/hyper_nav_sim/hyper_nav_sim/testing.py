@@ -88,27 +88,31 @@ def isolated_domain_id() -> int:
 
 
 def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, player_timeout_s: float = 180.0,
-                     wait_s: float = 60.0) -> list:
+                     wait_s: float = 60.0, also: dict | None = None, latched=()) -> list:
     """Play ``topics`` of ``bag`` (the player, wall-clock paced at ``rate``
     and never ahead of what the fusion node allows, no /clock) into a live fusion node set up by ``scenario`` (a scenario
     name or YAML file) and return its first ``count`` ``nav/state`` messages,
     to compare with ``hyper_nav_filter.offline.run_offline`` over the same
     bag (live == offline). Raises AssertionError with the node's log if the
-    player fails or fewer than ``count`` solutions arrive within ``wait_s``."""
+    player fails or fewer than ``count`` solutions arrive within ``wait_s``.
+    ``also``: {topic: type} collected as well, their messages put back in
+    ``also`` (``latched``: those of them published transient local)."""
     from hyper_nav_msgs.msg import NavState
 
     from .graph import Graph
-    outputs = {"nav/state": NavState}
+    outputs = {"nav/state": NavState, **(also or {})}
     # paced by the fusion node's allowance too (hyper_nav_filter.clock_gate): on a loaded machine the
     # player waits for the node instead of overrunning its input queues (a fresh run under load lost data)
     player = {"bag": str(bag), "rate": float(rate), "topics": list(topics), "wait_for_subscribers": 1,
               "publish_clock": False, "allowance_nodes": ["fusion"]}
-    with Graph(str(scenario), nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
-        with TopicCollector(outputs, domain_id=g.domain_id) as c:
+    with Graph(str(scenario), nodes=("fusion",), extra_subscribers={t: 1 for t in outputs if t not in latched}) as g:
+        with TopicCollector(outputs, domain_id=g.domain_id, latched=latched) as c:
             time.sleep(0.5)
             g.node_params["player"] = player
             g._spawn("player")
             assert g.procs["player"].wait(timeout=player_timeout_s) == 0, g.log("player")
             assert c.wait_for(lambda m: len(m["nav/state"]) >= count, wait_s), \
                 (len(c.messages["nav/state"]), count, g.log("fusion"))
+            for t in also or {}:
+                also[t] = list(c.messages[t])
             return list(c.messages["nav/state"])[:count]

@@ -56,6 +56,8 @@ NODE_PARAMS = (
               "and /tf_static before subscribing to the inputs", lo=0, hi=100),
     ParamSpec("tf.imu_position_b_m", FLOATS, (0.0, 0.0, 0.0), "IMU position in base_link (FLU, m); the filter's "
               "body frame is the IMU's, so normally zero", length=3),
+    ParamSpec("tf.imu_rotation_b_xyzw", FLOATS, (0.0, 0.0, 0.0, 1.0), "IMU axes in base_link, unit quaternion "
+              "(x, y, z, w; scenario imu.mounting_b_xyzw: the mounting import_data applied)", length=4),
     ParamSpec("tf.magnetometer_position_b_m", FLOATS, (0.0, 0.0, 0.0), "magnetometer position in base_link "
               "(FLU, m; scenario magnetometer.lever_arm_b_m)", length=3),
     ParamSpec("origin.lat_deg", FLOAT, float("nan"), "map origin latitude (deg); NaN = the initial position",
@@ -119,6 +121,9 @@ class FusionNode(Node):
         # inputs received behind the IMU (replay_order): transient local, so a late-joining recorder gets them
         self.pub_late = self.create_publisher(LateInput, LATE_INPUTS_TOPIC, latched_qos(p["qos.depth"]))
         self.late = LateInputTracker()
+        q = np.asarray(p["tf.imu_rotation_b_xyzw"], float)
+        if not (np.all(np.isfinite(q)) and abs(np.linalg.norm(q) - 1.0) <= 1e-6):
+            raise ConfigError(f"tf.imu_rotation_b_xyzw: must be a unit quaternion (x, y, z, w), got {q.tolist()}")
         if not p["clock.imu_gap_s"] < p["clock.lead_s"]:
             raise ConfigError(f"clock.imu_gap_s ({p['clock.imu_gap_s']}) must be below clock.lead_s "
                               f"({p['clock.lead_s']}): the clock could never pass an IMU gap")
@@ -241,15 +246,18 @@ class FusionNode(Node):
                 self.counts["published tf"] += 1
 
     def _publish_static_transforms(self):
-        """base_link -> imu_link / gnss_antenna / magnetometer (lever arms, body FLU), once, latched."""
+        """base_link -> imu_link / gnss_antenna / magnetometer (lever arms, body FLU; the IMU's mounting
+        rotation), once, latched."""
         p = self.p
-        children = {p["frames.imu"]: p["tf.imu_position_b_m"],
-                    p["frames.gnss_antenna"]: self.cfg.antenna_lever_arm_b_m,
-                    p["frames.magnetometer"]: p["tf.magnetometer_position_b_m"]}
+        identity = (0.0, 0.0, 0.0, 1.0)
+        children = {p["frames.imu"]: (p["tf.imu_position_b_m"], p["tf.imu_rotation_b_xyzw"]),
+                    p["frames.gnss_antenna"]: (self.cfg.antenna_lever_arm_b_m, identity),
+                    p["frames.magnetometer"]: (p["tf.magnetometer_position_b_m"], identity)}
         msg = TFMessage()
-        for child, position in children.items():
+        for child, (position, rotation) in children.items():
             t = TransformStamped()
-            assign_fields(t, static_transform_fields(self.engine.t_latest_s, self.frames.body, child, position))
+            assign_fields(t, static_transform_fields(self.engine.t_latest_s, self.frames.body, child, position,
+                                                     rotation))
             msg.transforms.append(t)
         self.pub_tf_static.publish(msg)
         self.counts["published tf_static"] += 1

@@ -196,7 +196,7 @@ CONFIG_FIELDS = {
     "gyro_quantum_urad": ("num>=0", 0.0),
     "accel_quantum_mm_per_s": ("num>=0", 0.0),
 }
-IGNORED_FIELDS = {"rate_hz"}
+IGNORED_FIELDS = {"rate_hz", "mounting_b_xyzw"}      # not error-model fields (the mounting: /tf_static)
 
 
 def _is_num(x):

@@ -67,6 +67,10 @@ SCHEMA = {
     "imu.gyro_arw_deg_per_sqrt_hr": (NUM, True, None),
     "imu.accel_bias_ug": (vec(3), True, None),
     "imu.accel_vrw_ug_per_sqrt_hz": (NUM, True, None),
+    # the IMU's own axes in base_link (FLU) as a unit quaternion (x, y, z, w): the mounting that
+    # import_data applied at the edge (it prints this); its frame on /tf_static only, the filter
+    # works in the body frame
+    "imu.mounting_b_xyzw": (vec(4), False, [0.0, 0.0, 0.0, 1.0]),
     "gnss.rate_hz": (NUM, True, None),
     "gnss.pos_sigma_enu_m": (vec(3), True, None),
     "gnss.vel_sigma_enu_mps": (vec(3), True, None),
@@ -382,6 +386,9 @@ def _check_range(field: str, value) -> None:
         raise ScenarioError(f"{field}: must be >= 0, got {value!r}")
     if "sigma" in field.rsplit(".", 1)[-1] and any(v <= 0 for v in vals):
         raise ScenarioError(f"{field}: a standard deviation must be > 0, got {value!r}")
+    if field == "imu.mounting_b_xyzw" and abs(sum(v * v for v in vals) ** 0.5 - 1.0) > 1e-6:
+        raise ScenarioError(f"{field}: must be a unit quaternion (x, y, z, w), got {value!r} "
+                            f"(norm {sum(v * v for v in vals) ** 0.5:.6g})")
     if field in RANGES:
         lo, hi, text = RANGES[field]
         inside = lo < value < hi if field == "start.lat_deg" else lo <= value <= hi

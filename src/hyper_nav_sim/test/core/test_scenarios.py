@@ -135,3 +135,27 @@ def test_extends_merges_onto_the_base_scenario(tmp_path):
     f.write_text(f"extends: {g}\n")
     with pytest.raises(ScenarioError, match="circular"):
         load_scenario(str(f))
+
+
+def test_imu_mounting_reaches_the_fusion_node_and_must_be_a_unit_quaternion(tmp_path):
+    """``imu.mounting_b_xyzw`` (import_data prints it) becomes the fusion
+    node's ``tf.imu_rotation_b_xyzw`` (base_link -> imu_link on /tf_static);
+    the default is no rotation; a quaternion that is not unit is refused by
+    name; the simulated IMU's error model ignores the field."""
+    from hyper_nav_filter.output import static_transform_fields
+    from hyper_nav_sim.core.imu_model import ImuErrors
+    from hyper_nav_sim.core.scenario import ScenarioError
+    from hyper_nav_sim.graph import fusion_parameters
+    assert fusion_parameters(load_scenario("default"))["tf.imu_rotation_b_xyzw"] == [0.0, 0.0, 0.0, 1.0]
+    q = [0.5, -0.5, 0.5, 0.5]
+    f = tmp_path / "mounted.yaml"
+    f.write_text(f"extends: default\nname: mounted\nimu: {{mounting_b_xyzw: {q}}}\n")
+    sc = load_scenario(str(f))
+    assert fusion_parameters(sc)["tf.imu_rotation_b_xyzw"] == q
+    a, b = ImuErrors.from_config(sc.data["imu"]), ImuErrors.from_config(load_scenario("default").data["imu"])
+    assert all(np.array_equal(getattr(a, k), getattr(b, k)) for k in vars(a))
+    d = static_transform_fields(1.5, "base_link", "imu_link", [0.1, 0.0, 0.0], q)
+    assert [d[f"transform.rotation.{k}"] for k in "xyzw"] == q and d["transform.translation.x"] == 0.1
+    f.write_text("extends: default\nname: mounted\nimu: {mounting_b_xyzw: [0.5, 0.5, 0.5, 0.6]}\n")
+    with pytest.raises(ScenarioError, match=r"imu.mounting_b_xyzw: must be a unit quaternion .*norm 1.05"):
+        load_scenario(str(f))

@@ -86,6 +86,9 @@ class ImuTable:
     duplicates: tuple = ()          # data rows (1-based) dropped as logged duplicates
     antenna_lever_arm_b_m: tuple | None = None     # FLU, from ``antenna_lever_arm_m``
     C_s_b: tuple | None = None      # the mounting rotation applied (rows), None: none
+    # the sensor's own axes in the body FLU frame (the whole rotation applied: convention and mounting)
+    # as a unit quaternion (x, y, z, w), the scenario's imu.mounting_b_xyzw (its frame on /tf_static)
+    mounting_b_xyzw: tuple = (0.0, 0.0, 0.0, 1.0)
 
 
 @dataclass
@@ -297,7 +300,9 @@ def imu_table(spec: dict, base_dir, where: str = "imu") -> ImuTable:
         if not (isinstance(lever, (list, tuple)) and len(lever) == 3 and all(_is_num(x) for x in lever)):
             raise ConfigError(f"{where}.antenna_lever_arm_m: expected 3 numbers (m), got {lever!r}")
         lever = tuple(float(x) for x in M @ np.asarray(lever, float))
-    return ImuTable(t, w, f, dups, lever, None if C_s_b is None else tuple(map(tuple, C_s_b.tolist())))
+    from scipy.spatial.transform import Rotation
+    q_b_xyzw = tuple(float(v) for v in Rotation.from_matrix(R).as_quat())     # R: sensor -> body, v_b = R v_s
+    return ImuTable(t, w, f, dups, lever, None if C_s_b is None else tuple(map(tuple, C_s_b.tolist())), q_b_xyzw)
 
 
 def fix_table(spec: dict, base_dir, where: str) -> FixTable:

@@ -205,3 +205,23 @@ def test_import_without_initial_attitude_aligns_on_the_gnss_velocity(tmp_path):
     (tmp_path / "import.yaml").write_text(yaml.safe_dump(doc))
     with pytest.raises(ConfigError, match="filter.initial_state.t_s: given .* without an attitude"):
         import_data.load_import(tmp_path / "import.yaml")
+
+
+def test_the_applied_mounting_is_reported_as_the_imu_frames_quaternion(tmp_path):
+    """``ImuTable.mounting_b_xyzw`` (the scenario's ``imu.mounting_b_xyzw``,
+    base_link -> imu_link on /tf_static) is the rotation the importer applied:
+    a sensor-axis vector turned by it is the body vector the table holds,
+    with the body convention included (FRD files: x forward, y right, z down)."""
+    text = _rows(np.arange(0, 0.1, 0.01))                # the sensor's z axis reads +1 g
+    flu = columns.imu_table({**_spec(tmp_path, text), "mounting": {"roll_pitch_yaw_deg": list(RPY_DEG)}}, tmp_path)
+    C_s_b = Rotation.from_euler("ZYX", RPY_DEG[::-1], degrees=True).as_matrix().T
+    q = np.asarray(flu.mounting_b_xyzw)
+    assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(Rotation.from_quat(q).as_matrix(), C_s_b, atol=1e-12)
+    f_b = flu.dvel_b_mps[1] / 0.01
+    np.testing.assert_allclose(Rotation.from_quat(q).apply([0.0, 0.0, 9.80665]), f_b, atol=1e-9)
+    frd = columns.imu_table({**_spec(tmp_path, text), "body": "FRD"}, tmp_path)
+    np.testing.assert_allclose(Rotation.from_quat(frd.mounting_b_xyzw).as_matrix(), np.diag([1.0, -1.0, -1.0]),
+                               atol=1e-12)
+    plain = columns.imu_table(_spec(tmp_path, text), tmp_path)
+    assert plain.mounting_b_xyzw == (0.0, 0.0, 0.0, 1.0)
