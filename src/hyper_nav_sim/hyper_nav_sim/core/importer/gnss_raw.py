@@ -232,15 +232,7 @@ def initial_from_spp(imp: GnssImport, t_stamp_s: float, n_epochs: int = 5) -> di
     ``hyper_nav_filter.core.gnss`` (combinations.DEFAULT_PLAN)."""
     from hyper_nav_filter.core import earth
     from hyper_nav_filter.core.gnss import spp
-    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
-    from hyper_nav_filter.core.gnss.receiver_model import ReceiverModel
-    store = EphemerisStore()
-    for _, e in imp.ephemerides:
-        try:
-            store.add(e)
-        except MalformedGnssInput:
-            pass
-    cfg = spp.SppConfig(ReceiverModel(klobuchar=imp.iono or None))
+    store, cfg = _spp_setup(imp)
     eps = [e for e in imp.epochs if imp.stamp_s(e.t_rx_gpst_s) >= t_stamp_s - 1e-6]
     sols = [s for s in spp.solve(eps[: 4 * n_epochs], store, cfg) if s.valid][:n_epochs]
     if not sols:
@@ -254,6 +246,22 @@ def initial_from_spp(imp: GnssImport, t_stamp_s: float, n_epochs: int = 5) -> di
     isb = [float(np.mean([s.isb_m.get(k, 0.0) for s in sols])) for k in ("E", "C", "J")]
     return {"lat_deg": float(np.rad2deg(lat)), "lon_deg": float(np.rad2deg(lon)), "alt_m": float(alt),
             "clock_bias_m": float(b[0] + drift * (t_stamp_s - t[0])), "clock_drift_mps": drift, "isb_m": isb}
+
+
+def _spp_setup(imp: "GnssImport"):
+    """The import's broadcast ephemerides as a store (malformed ones left
+    out, as the filter does) and the default single-point configuration
+    with the import's Klobuchar coefficients."""
+    from hyper_nav_filter.core.gnss import spp
+    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
+    from hyper_nav_filter.core.gnss.receiver_model import ReceiverModel
+    store = EphemerisStore()
+    for _, e in imp.ephemerides:
+        try:
+            store.add(e)
+        except MalformedGnssInput:
+            pass
+    return store, spp.SppConfig(ReceiverModel(klobuchar=imp.iono or None))
 
 
 @dataclass
@@ -286,15 +294,7 @@ def spp_fixes(imp: GnssImport, t_from_s: float | None = None, t_to_s: float | No
     valid position and a velocity are kept."""
     from hyper_nav_filter.core import earth
     from hyper_nav_filter.core.gnss import spp
-    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
-    from hyper_nav_filter.core.gnss.receiver_model import ReceiverModel
-    store = EphemerisStore()
-    for _, e in imp.ephemerides:
-        try:
-            store.add(e)
-        except MalformedGnssInput:
-            pass
-    cfg = spp.SppConfig(ReceiverModel(klobuchar=imp.iono or None))
+    store, cfg = _spp_setup(imp)
     eps = [e for e in imp.epochs if (t_from_s is None or imp.stamp_s(e.t_rx_gpst_s) >= t_from_s - 1e-6)
            and (t_to_s is None or imp.stamp_s(e.t_rx_gpst_s) <= t_to_s + 1e-6)]
     rows = []
