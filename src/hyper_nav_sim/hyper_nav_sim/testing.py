@@ -111,8 +111,31 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
             g.node_params["player"] = player
             g._spawn("player")
             assert g.procs["player"].wait(timeout=player_timeout_s) == 0, g.log("player")
-            assert c.wait_for(lambda m: len(m["nav/state"]) >= count, wait_s), \
-                (len(c.messages["nav/state"]), count, g.log("fusion"))
+            enough = lambda m: len(m["nav/state"]) >= count               # noqa: E731
+            if not _wait_quiet(c, enough, wait_s):
+                # the node holds its last output_delay_s of solutions until newer IMU data come or it
+                # stops: SIGINT, and it publishes them (publish_final_solutions), as the offline core
+                # releases them at the end of the bag
+                g.stop()
+                c.wait_for(enough, wait_s)
+            assert enough(c.messages), (len(c.messages["nav/state"]), count, g.log("fusion"))
             for t in also or {}:
                 also[t] = list(c.messages[t])
             return list(c.messages["nav/state"])[:count]
+
+
+def _wait_quiet(c: TopicCollector, predicate, timeout_s: float, quiet_s: float = 3.0) -> bool:
+    """Wait for ``predicate(c.messages)`` until ``timeout_s``, or until no
+    new message came for ``quiet_s``; whether it holds."""
+    deadline, last_n, last_change = time.monotonic() + timeout_s, -1, time.monotonic()
+    while time.monotonic() < deadline:
+        with c._lock:
+            if predicate(c.messages):
+                return True
+            n = sum(len(v) for v in c.messages.values())
+        if n != last_n:
+            last_n, last_change = n, time.monotonic()
+        elif time.monotonic() - last_change > quiet_s:
+            return False
+        time.sleep(0.05)
+    return False
