@@ -51,7 +51,7 @@ def _py(code: str, *args) -> list[str]:
 
 
 IMPORT = "import sys; from hyper_nav_sim.import_data import main; sys.exit(main(sys.argv[1:]))"
-REPLAY = "import sys; from hyper_nav_sim.report import replay_main; sys.exit(replay_main(sys.argv[1:]))"
+REPLAY = "import sys; from hyper_nav_sim.replay_filter import main; sys.exit(main(sys.argv[1:]))"
 REF_IMPORT = ("import sys; from hyper_nav_sim import import_data as m; "
               "m.write(m.load_import(sys.argv[1]), sys.argv[2], per_message=True)")
 REF_REPLAY = "import sys; sys.path.insert(0, sys.argv[1]); import user_path; user_path.reference(*sys.argv[2:])"
@@ -65,22 +65,23 @@ def reference(bag, truth, nav_out, std_out) -> None:
     from hyper_nav_filter.core.attitude import C_b_n_to_euler
     from hyper_nav_filter.filter_setup import FilterSetup
     from hyper_nav_filter.offline import run_offline
-    from hyper_nav_sim import report, replay_io
+    from hyper_nav_sim.core import scoring
+    from hyper_nav_sim.replay_filter import sigma_blocks
     from hyper_nav_sim.core.bag import deserialize, read_bag
     from hyper_nav_sim.core.importer import columns, kfgins, score
     setup = FilterSetup.load(pathlib.Path(bag) / "filter.yaml")
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)]
     sols, eng = run_offline(records, setup.config, setup.initial, sources=setup.sources, final=True)
-    nav = report.states_from_solutions(sols)
+    nav = scoring.states_from_solutions(sols)
     tab = columns.fix_table({**kfgins.NAV, "file": str(pathlib.Path(truth).resolve())}, pathlib.Path(truth).parent,
                             "truth")
     err = score.errors_against(nav, tab)
     err = {**err, "t": err["t"] - setup.initial.t_s}
-    print(report.format_table(report.summarize(err, setup.skip_s)))
+    print(scoring.format_table(scoring.summarize(err, setup.skip_s)))
     rph = np.array([C_b_n_to_euler(s.state.C_b_n) for s in sols])
     np.savetxt(nav_out, kfgins.nav_rows(nav["t"], nav["lat"], nav["lon"], nav["alt"], nav["vel"], rph),
                fmt="%.9f", delimiter=" ")
-    np.savetxt(std_out, kfgins.std_rows(nav["t"], replay_io.sigma_blocks(sols, setup.config.layout)),
+    np.savetxt(std_out, kfgins.std_rows(nav["t"], sigma_blocks(sols, setup.config.layout)),
                fmt="%.9f", delimiter=" ")
     print(f"engine counters: {dict(eng.counters)}")
 
