@@ -30,27 +30,44 @@ from .sources.router import SourceRouter
 class RowView:
     """One message of a topic's arrays, read like a message object:
     ``view.header.stamp.sec``, ``view.position_covariance`` (the row of a
-    (n, k) array), strings as str. Read-only."""
-    __slots__ = ("_fields", "_row", "_prefix")
+    (n, k) array), strings as str. Read-only. ``schema``: the topic's
+    ``row_schema(fields)``, built once per topic (given, the view does no
+    per-access search over the field names)."""
+    __slots__ = ("_fields", "_row", "_prefix", "_schema")
 
-    def __init__(self, fields: dict, row: int, prefix: str = ""):
+    def __init__(self, fields: dict, row: int, prefix: str = "", schema: dict | None = None):
         self._fields, self._row, self._prefix = fields, row, prefix
+        self._schema = row_schema(fields) if schema is None else schema
 
     def __getattr__(self, name):
         path = self._prefix + name
-        col = self._fields.get(path)
-        if col is None:
-            sub = path + "."
-            if any(k.startswith(sub) for k in self._fields):
-                return RowView(self._fields, self._row, sub)
+        kind = self._schema.get(path)
+        if kind is None:
             raise AttributeError(name)
-        v = col[self._row]
+        if kind is _NESTED:
+            return RowView(self._fields, self._row, path + ".", self._schema)
+        v = kind[self._row]
         if isinstance(v, np.bytes_):
             return v.decode()
         return v.item() if isinstance(v, np.generic) else v
 
     def __getitem__(self, i):              # arrays of nested messages: view.status[0]
-        return RowView(self._fields, self._row, f"{self._prefix[:-1]}.{i}.")
+        return RowView(self._fields, self._row, f"{self._prefix[:-1]}.{i}.", self._schema)
+
+
+_NESTED = object()
+
+
+def row_schema(fields: dict) -> dict:
+    """{dotted path: its column, or _NESTED for every proper prefix of a
+    field path} (``header``, ``header.stamp``, ``status.0``, ...)."""
+    schema = {}
+    for path in fields:
+        parts = path.split(".")
+        for i in range(1, len(parts)):
+            schema.setdefault(".".join(parts[:i]), _NESTED)
+    schema.update(fields)
+    return schema
 
 
 def log_order(topics) -> tuple[np.ndarray, np.ndarray]:
@@ -95,6 +112,7 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
     which, rows = ORDERS[order](topics)
     out: list[Solution] = []
     fast = []                                   # per topic: the IMU source fed from arrays, or None
+    schemas = [row_schema(t.fields) for t in topics]
     for t in topics:
         routes = router.routes[t.topic.lstrip("/")]
         src, role = routes[0]
@@ -123,7 +141,7 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
                 s.on_imu(eng)
             out.extend(release())
         else:
-            out.extend(router.handle_topic(topics[i].topic, RowView(topics[i].fields, r))[1])
+            out.extend(router.handle_topic(topics[i].topic, RowView(topics[i].fields, r, schema=schemas[i]))[1])
         if progress is not None and k % 20000 == 0:
             progress(k)
     for src, n in counters.items():                # what SourceType.on_message counts per accepted sample
