@@ -28,6 +28,16 @@ What the nodes allow (README, Timing):
 A node that stops reporting (dead, hung) for ``timeout_s`` of wall time is
 no longer waited for (the liveness monitor reports it), so the clock never
 stalls forever.
+
+A node publishes no allowance at all until its inputs are matched from its
+own side (``ClockAllowance(ready=InputsReady(...))``): the time source's
+publisher counts a subscription as matched once *it* has discovered it, and
+starts sending; the subscriber may discover that publisher later, and a
+volatile reliable reader drops what a writer sent before the reader matched
+it. Seen on the walk replay (issue 22): the fusion node lost the first 0.2 s
+of IMU messages under load, and its solutions differed from the offline
+core's. While the gate has not heard a node it holds the clock (up to its
+``timeout_s``), so nothing is sent before the subscriber is ready.
 """
 from __future__ import annotations
 
@@ -47,10 +57,12 @@ class ClockAllowance:
     at once when it shrinks or has grown by ``step_s``, and on a wall-clock
     timer (``period_s``) always, which also tells the gate the node is alive."""
 
-    def __init__(self, node, period_s: float = 0.05, step_s: float = 0.1, source=None):
+    def __init__(self, node, period_s: float = 0.05, step_s: float = 0.1, source=None, ready=None):
         """``source``: a callable giving the allowance, evaluated on the timer
-        (instead of ``set``)."""
+        (instead of ``set``). ``ready``: a callable; nothing is published
+        until it first returns True (e.g. ``InputsReady``)."""
         self.node = node
+        self.ready = ready
         self.pub = node.create_publisher(KeyValue, TOPIC, _QOS)
         self.allow_s = math.inf
         self.step_s = float(step_s)
@@ -73,8 +85,57 @@ class ClockAllowance:
             self._publish()
 
     def _publish(self) -> None:
+        if self.ready is not None:
+            if not self.ready():
+                return
+            self.ready = None                  # once ready, always
         self.pub.publish(KeyValue(key=self.node.get_name(), value=repr(self.allow_s)))
         self._sent = self.allow_s
+
+
+class InputsReady:
+    """Whether a node's input subscriptions are matched from the node's own
+    side: each has matched as many publishers as the graph shows on its
+    topic, and each of ``required`` (topic names) at least one. Until the
+    subscriptions exist (``subscriptions()`` empty) it is not ready; after
+    ``timeout_s`` of wall time from then it is, with a warning naming the
+    topics still unmatched (a publisher with incompatible QoS never matches),
+    so a gate is never held for good."""
+
+    def __init__(self, node, subscriptions, required=(), timeout_s: float = 5.0):
+        """``subscriptions``: a callable returning the node's input
+        subscriptions (rclpy ``Subscription``), which may be created later."""
+        self.node = node
+        self.subscriptions = subscriptions
+        self.required = {node.resolve_topic_name(t) for t in required}
+        self.timeout_s = float(timeout_s)
+        self._since = None
+
+    def unmatched(self) -> list[str]:
+        """Input topics not matched yet from this side (empty: ready)."""
+        out = []
+        for sub in self.subscriptions():
+            topic = sub.topic_name
+            known = self.node.count_publishers(topic)
+            matched = sub.get_publisher_count()
+            if matched < known or (topic in self.required and matched < 1):
+                out.append(f"{topic} ({matched} of {max(known, 1)} publishers matched)")
+        return out
+
+    def __call__(self) -> bool:
+        subs = self.subscriptions()
+        if not subs:
+            return False
+        if self._since is None:
+            self._since = time.monotonic()
+        left = self.unmatched()
+        if not left:
+            return True
+        if time.monotonic() - self._since > self.timeout_s:
+            self.node.get_logger().warning(f"inputs not matched after {self.timeout_s:g} s: {', '.join(left)}; "
+                                           "allowing the clock anyway")
+            return True
+        return False
 
 
 class AllowanceGate:

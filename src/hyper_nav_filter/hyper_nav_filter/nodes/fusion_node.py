@@ -35,7 +35,7 @@ from ..core.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
-from ..clock_gate import ClockAllowance
+from ..clock_gate import ClockAllowance, InputsReady
 from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
@@ -127,7 +127,11 @@ class FusionNode(Node):
         if not p["clock.imu_gap_s"] < p["clock.lead_s"]:
             raise ConfigError(f"clock.imu_gap_s ({p['clock.imu_gap_s']}) must be below clock.lead_s "
                               f"({p['clock.lead_s']}): the clock could never pass an IMU gap")
-        self.allowance = ClockAllowance(self)
+        # no allowance before the inputs are matched from this side (clock_gate: a time source that waits
+        # for this node sends nothing this node's subscriptions would drop)
+        self._input_subs = []
+        imu_topics = [inp.topic for src in self.router.sources if src.drives_time for inp in src.inputs()]
+        self.allowance = ClockAllowance(self, ready=InputsReady(self, lambda: self._input_subs, required=imu_topics))
         self._clock_s = -np.inf          # the newest /clock taken (in this executor, beside the inputs)
         self._set_allowance()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
@@ -181,7 +185,8 @@ class FusionNode(Node):
                 subscriber_qos(src.spec.qos == "reliable", depth)
             name = self.resolve_topic_name(inp.topic)         # after remapping: the topic the bag records
             cb = (lambda msg, s=src, r=inp.role, t=name: self._on_message(s, r, msg, t))
-            self._subs.append(self.create_subscription(message_class(inp.msg_type), inp.topic, cb, qos))
+            self._input_subs.append(self.create_subscription(message_class(inp.msg_type), inp.topic, cb, qos))
+        self._subs.extend(self._input_subs)
         self.get_logger().info("outputs matched; sources: " + ", ".join(
             f"{s.id} ({s.spec.type}) <- {', '.join(i.topic for i in s.inputs())}" for s in self.router.sources))
 

@@ -2,8 +2,8 @@
 
 Parameters:
     bag (str, required)            bag directory (or a bare .mcap file)
-    rate (1.0)                     playback speed factor on log time; <= 0 = as fast
-                                   as reliable delivery allows
+    rate (1.0)                     playback speed factor on log time (> 0); a large factor
+                                   with allowance_nodes replays as fast as those nodes keep up
     publish_clock (true)           publish rosgraph_msgs/Clock on /clock with each
                                    message's log time before it (a recorded /clock
                                    topic is then not replayed)
@@ -15,6 +15,12 @@ Parameters:
     topics (str[], default [])     topics to replay; empty = all
     qos_depth (2000)               KEEP_LAST depth of the publishers (at least the recorded depth)
     diagnostics_period_s (1.0)     period of the player's /diagnostics status (wall time)
+    allowance_nodes (str[], [])    nodes whose /graph/allowance the replay waits for
+                                   (hyper_nav_filter.clock_gate): e.g. [fusion], so the
+                                   replay never runs ahead of the filter and starts only
+                                   once the filter's subscriptions have matched it
+                                   (bit-exact live == offline); allowance_timeout_s (10.0)
+                                   a silent node is no longer waited for
 
 Each topic is offered with the QoS its publishers offered when it was
 recorded (the bag's ``offered_qos_profiles``, adapted as ``ros2 bag play``
