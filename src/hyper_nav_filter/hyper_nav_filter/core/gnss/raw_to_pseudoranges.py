@@ -53,7 +53,7 @@ from __future__ import annotations
 import math
 
 from collections import Counter
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -426,7 +426,7 @@ class RawPseudoranges:
     once per satellite: the state moves by centimetres between the
     satellites' updates, which changes these corrections by micrometres.
     Measured on the walk_0827 log (14.6 satellites per epoch): the
-    correction step took 4.2 s of a 14 s profiled replay, 0.3 s after."""
+    correction step took 4.2 s of a 14 s profiled replay, 0.6 s after."""
     t_s: float
     raw: RawGnssEpoch
     channels: np.ndarray
@@ -455,13 +455,19 @@ class RawPseudoranges:
         r_ant, clk = nominal_receiver(state, lever_arm_b_m, self.t_s)
         if self.epoch is not None and cache is not None:
             obs_all, states_all, row = self.epoch
-            key = ("pseudorange_corrections", id(obs_all))
-            cor = cache.get(key)
-            if cor is None:
-                from .receiver_model import corrected_at
-                cor = cache[key] = corrected_at(obs_all, r_ant, clk, self.receiver, states_all)
-            p, keep = _real_pseudoranges(self.observations, self.raw, r_ant, clk, self.receiver, self.use_rates,
-                                         self.states, corrected=_corrected_row(cor, row))
+            key = ("pseudoranges", id(obs_all))
+            hit = cache.get(key)
+            if hit is None:
+                p_all, keep_all = _real_pseudoranges(obs_all, self.raw, r_ant, clk, self.receiver, self.use_rates,
+                                                     states_all)
+                hit = cache[key] = (p_all, {int(k): j for j, k in enumerate(keep_all)})
+            p_all, where = hit
+            j = where.get(row)
+            keep = np.zeros(1 if j is not None else 0, int)
+            sl = slice(j, j + 1) if j is not None else slice(0, 0)
+            p = Pseudoranges(p_all.t_s, p_all.sat_pos_e_m[sl], p_all.sat_vel_e_mps[sl], p_all.pseudorange_m[sl],
+                             p_all.pseudorange_var_m2[sl], p_all.rate_mps[sl] if len(p_all.rate_mps) else p_all.rate_mps,
+                             p_all.rate_var_m2ps2[sl] if len(p_all.rate_var_m2ps2) else p_all.rate_var_m2ps2)
         elif self.observations is None:
             p = corrected_pseudoranges(self.raw, self.channels, self.ephemerides, r_ant, self.corrections, clk,
                                        self.use_rates)
@@ -481,13 +487,7 @@ class RawPseudoranges:
         return self.pseudoranges(state, ctx.lever_arm_b_m, getattr(ctx, "cache", None)).model(state, layout, ctx)
 
 
-def _corrected_row(cor, row: int):
-    """One satellite (row) of a receiver_model.Corrected, as a Corrected of one."""
-    sl = slice(row, row + 1)
-    return type(cor)(*(getattr(cor, f.name)[sl] for f in fields(cor)))
-
-
-def _real_pseudoranges(obs, raw, r_ant, clk, receiver, use_rates, states=None, corrected=None):
+def _real_pseudoranges(obs, raw, r_ant, clk, receiver, use_rates, states=None):
     """Pseudoranges of real signals at the nominal receiver (receiver_model;
     satellite states at the transmit time given by the pseudoranges,
     ``receiver_model.states_from_pseudoranges``, evaluated once when the
@@ -495,10 +495,8 @@ def _real_pseudoranges(obs, raw, r_ant, clk, receiver, use_rates, states=None, c
     satellites below the elevation mask left out. Rates: the first signal's, + c x satellite clock drift (the
     light-time rate factor, 2e-5 relative, is left out: real receivers here
     move at walking speed)."""
-    if corrected is None:
-        from .receiver_model import corrected_at
-        corrected = corrected_at(obs, r_ant, clk, receiver, states)
-    cor = corrected
+    from .receiver_model import corrected_at
+    cor = corrected_at(obs, r_ant, clk, receiver, states)
     keep = np.flatnonzero(cor.el_rad >= receiver.elevation_mask_rad)
     rate = rate_var = np.zeros(0)
     if use_rates:
