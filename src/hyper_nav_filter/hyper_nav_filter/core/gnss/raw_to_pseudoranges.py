@@ -542,6 +542,8 @@ class TightGnssInput:
         self.corrections = corrections if corrections is not None else ReceiverCorrections()
         self.absent_retry_s = float(absent_retry_s)
         self._absent: dict[tuple, float] = {}      # (system, prn) -> epoch whose hold ran out without its record
+        self._version = 0                          # bumped when a record comes or a satellite is given up
+        self._incomplete_at: dict[int, int] = {}   # id(pending epoch) -> version it was found incomplete at
         self.use_rates = bool(use_rates)
         self.hold_s = float(hold_s)
         self.receiver = receiver
@@ -556,6 +558,7 @@ class TightGnssInput:
         """Store a record received at ``received_s`` (its message's stamp);
         raises MalformedGnssInput for an invalid one."""
         self.ephemerides.add(eph, received_s)
+        self._version += 1
 
     def add_klobuchar(self, system: str, alpha, beta) -> None:
         """A broadcast Klobuchar set (GnssEphemeris.klobuchar_*) for the real-signal model."""
@@ -597,13 +600,19 @@ class TightGnssInput:
         epoch held past hold_s still lacks are given up for absent_retry_s."""
         out = []
         for r in self._pending:
-            if self._complete(r):
+            # an epoch found incomplete stays so until a record comes or a satellite is given up (_version)
+            if self._incomplete_at.get(id(r)) != self._version and self._complete(r):
                 out.append(r)
             elif r.t_s <= t_now_s - self.hold_s:
                 out.append(r)
                 for key in self._missing(r, waited_for=False):
                     self._absent[key] = float(r.t_s)
+                    self._version += 1
                 self.counters["epochs_held_out"] += 1
+            else:
+                self._incomplete_at[id(r)] = self._version
+        for r in out:
+            self._incomplete_at.pop(id(r), None)
         if out:
             self._pending = [r for r in self._pending if not any(r is o for o in out)]
         return sorted(out, key=lambda r: r.t_s)
