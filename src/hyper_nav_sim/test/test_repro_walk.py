@@ -25,3 +25,22 @@ def test_walk_segment_tightly_coupled_beats_single_point(tmp_path):
     assert tc["horizontal_rms_m"] < 1.0             # full run 0.58 m; this segment 0.38 m (SPP 1.02 m)
     assert tc["horizontal_rms_m"] < spp["horizontal_rms_m"]
     assert tc["counters"]["imu_accepted"] > 2900
+
+
+def test_mean_sigma_of_correlated_series_matches_ar1_theory():
+    """The datum offset's 1-sigma (repro_walk.mean_sigma) on a seeded AR(1)
+    series, rho = 0.9: sigma of the mean = sigma / sqrt(n) sqrt((1 + rho) /
+    (1 - rho)) (4.36x the white value); white noise: sigma / sqrt(n).
+    Tolerance 25 % (the estimate's own spread at n = 20000)."""
+    import numpy as np
+    from hyper_nav_sim.repro_walk import mean_sigma
+    rng = np.random.default_rng(7)
+    n, rho = 20000, 0.9
+    w = rng.standard_normal((n, 2))
+    x = np.empty(n)
+    x[0] = w[0, 0]
+    for k in range(1, n):
+        x[k] = rho * x[k - 1] + np.sqrt(1 - rho ** 2) * w[k, 0]
+    s = mean_sigma(np.column_stack([x, w[:, 1]]))
+    assert s[0] == pytest.approx(np.sqrt((1 + rho) / (1 - rho) / n), rel=0.25)
+    assert s[1] == pytest.approx(1.0 / np.sqrt(n), rel=0.25)

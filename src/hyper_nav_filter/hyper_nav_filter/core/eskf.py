@@ -28,6 +28,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from .blocks.base import Block
+from .blocks.nav import Attitude
 from .config import FilterConfig
 from .fast import predict as fast_predict
 from .fast import update as fast_update
@@ -222,7 +223,8 @@ class ErrorStateKF:
             self._predict_fast(imu)
             return
         lin = self.linearize(imu)
-        self.x_nav = self.frame.mechanize(self.x_nav, self.t_s, lin.dth, lin.dv, lin.dth_p, lin.dv_p, imu.dt_s)
+        self.x_nav = self.frame.mechanize(self.x_nav, self.t_s, lin.dth, lin.dv, lin.dth_p, lin.dv_p, imu.dt_s,
+                                          None if self.imu_prev is None else self.imu_prev.dt_s)
         new_vals = lin.values
         for blk, s in self._propagated:
             new_vals = new_vals.copy() if new_vals is self.values else new_vals
@@ -232,6 +234,7 @@ class ErrorStateKF:
         self.t_s = imu.t_s
         P = lin.Phi @ self.P @ lin.Phi.T + lin.Q
         self.P = 0.5 * (P + P.T)
+        self._add_rate_error_q(imu)
         self.last_Phi, self.P_prior = lin.Phi, self.P
         self.epoch_dx = None
 
@@ -259,6 +262,7 @@ class ErrorStateKF:
                 imu = imu._replace(dvel_b_mps=imu.dvel_b_mps - dv_remove)
         self.x_nav, self.P, Phi = self.frame.fast_predict(self.x_nav, self.t_s, vals, self.P, imu,
                                                           self.imu_prev, self.sys)
+        self._add_rate_error_q(imu)
         for blk, s in self._propagated:
             new_vals = new_vals.copy() if new_vals is vals else new_vals
             new_vals[s] = blk.propagate(new_vals[s], imu.dt_s, self.cfg)
@@ -267,6 +271,19 @@ class ErrorStateKF:
         self.t_s = imu.t_s
         self.last_Phi, self.P_prior = Phi, self.P
         self.epoch_dx = None
+
+    def _add_rate_error_q(self, imu: ImuSample) -> None:
+        """The attitude block's rate-proportional gyro error (``blocks.nav``,
+        gyro_rate_error_pct): isotropic, added to P's attitude diagonal after
+        the predict (no-op when the parameter is 0)."""
+        if self.cfg.gyro_rate_error_pct <= 0.0:
+            return
+        q = Attitude.rate_error_q(self.cfg, imu.dtheta_b_rad, imu.dt_s)
+        k = self.cfg.layout.sl("att").start
+        P = self.P
+        P[k, k] += q
+        P[k + 1, k + 1] += q
+        P[k + 2, k + 2] += q
 
     def linearize(self, imu: ImuSample) -> "Linearization":
         """Everything one predict step needs, at the current state, without

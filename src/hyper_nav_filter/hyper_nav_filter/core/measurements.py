@@ -154,11 +154,15 @@ class ModelContext:
     """Quantities a model needs besides the state: the antenna lever arm
     (body FLU, m), the body rate relative to ENU (rad/s, body axes; computed
     once per epoch, only when a model asks for it) and the measurement epoch
-    minus the state epoch (s)."""
-    __slots__ = ("lever_arm_b_m", "_omega", "dt_to_meas_s")
+    minus the state epoch (s). ``cache``: a dict shared by the contexts of
+    one pass over one epoch (``shifted`` keeps it; a re-processed epoch gets
+    a new one), where a model may keep what it computes once per epoch
+    (the per-satellite pseudoranges' corrections: ``RawPseudoranges``)."""
+    __slots__ = ("lever_arm_b_m", "_omega", "dt_to_meas_s", "cache")
 
-    def __init__(self, lever_arm_b_m, omega_nb_b_radps=None, dt_to_meas_s: float = 0.0):
+    def __init__(self, lever_arm_b_m, omega_nb_b_radps=None, dt_to_meas_s: float = 0.0, cache: dict | None = None):
         self.lever_arm_b_m = np.asarray(lever_arm_b_m, float)
+        self.cache = {} if cache is None else cache
         # a shared one-element box: a value, or a callable computing it
         self._omega = omega_nb_b_radps if isinstance(omega_nb_b_radps, list) else \
             [np.zeros(3) if omega_nb_b_radps is None else np.asarray(omega_nb_b_radps, float)]
@@ -172,7 +176,7 @@ class ModelContext:
 
     def shifted(self, dt_to_meas_s: float) -> "ModelContext":
         """The same context for a measurement dt_to_meas_s after the state epoch."""
-        return ModelContext(self.lever_arm_b_m, self._omega, dt_to_meas_s)
+        return ModelContext(self.lever_arm_b_m, self._omega, dt_to_meas_s, self.cache)
 
     @classmethod
     def at(cls, kf, imu, lever_arm_b_m) -> "ModelContext":

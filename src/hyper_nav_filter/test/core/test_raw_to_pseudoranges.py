@@ -306,3 +306,31 @@ def test_a_record_is_usable_from_its_reception_on(sky):
     assert tight.ready(10.3) == []                                   # incomplete: held
     assert tight.ready(10.5) == [raw]                                # hold expired
     assert tight.measurement(raw) is None                            # nothing received by 10 s
+
+
+def test_a_satellite_whose_record_never_comes_holds_one_epoch_per_retry_interval(sky):
+    """A tracked satellite without any ephemeris (walk_0827: G18, C50) holds
+    the first epoch for hold_s; the next epochs are released at once (every
+    other record present) until absent_retry_s has passed, then one epoch
+    waits again; once the record comes, the satellite is used."""
+    ephs, obs = sky
+    tight = TightGnssInput(hold_s=0.5, absent_retry_s=30.0)
+    for e in ephs[1:]:                                               # ephs[0] never broadcast
+        tight.add_ephemeris(e, received_s=0.0)
+    first = _raw(ephs, obs, t_s=10.0)
+    tight.add_raw(first)
+    assert tight.ready(10.4) == []                                   # waited for
+    assert tight.ready(10.5) == [first]                              # hold expired: given up
+    second = _raw(ephs, obs, t_s=10.25)
+    tight.add_raw(second)
+    assert tight.ready(10.5) == [second]                             # not waited for
+    later = _raw(ephs, obs, t_s=40.0)                                # 30 s after the give-up
+    tight.add_raw(later)
+    assert tight.ready(40.0) == []                                   # waited for once more
+    assert tight.ready(40.5) == [later]
+    assert tight.counters["epochs_held_out"] == 2
+    tight.add_ephemeris(ephs[0], received_s=40.6)                    # the record comes
+    last = _raw(ephs, obs, t_s=40.75)
+    tight.add_raw(last)
+    assert tight.ready(40.75) == [last]                              # complete
+    assert tight._missing(last, waited_for=False) == []

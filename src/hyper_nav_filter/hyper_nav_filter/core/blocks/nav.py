@@ -13,13 +13,31 @@ Both are per body axis (a single number in a file means every axis) and may
 be given in the units other tools use (``core.params`` aliases): ARW also in
 rad/sqrt(s), deg/h/sqrt(Hz) or deg/s/sqrt(Hz) (MEMS data sheets), VRW also in m/s/sqrt(h) (KF-GINS) or
 m/s/sqrt(s).
+
+The attitude block also owns the gyro's rate-proportional errors when no
+scale-factor / misalignment states are carried (``gyro_rate_error_pct``):
+a MEMS gyro's scale-factor tolerance and cross-axis sensitivity (TDK
+ICM-426xx class: +/-0.5 % and +/-1.25 % of the rate) make an error
+delta_w = S w with S an unknown matrix. A handheld unit turns by tens of
+degrees per second for a second or two at a time, so that error is not the
+bias instability (which the bias blocks carry) and not the ARW: it is
+treated as white over the turn, with the correlation time tau of the
+turn's half duration (a turn of angle psi over T seconds then adds
+sigma^2 psi^2 2 tau / T = sigma^2 psi^2 to the attitude variance, what the
+constant S gives for one turn):
+
+    Q_att += 2 sigma^2 |w|^2 tau dt I3      (isotropic in body axes, so in any frame)
+
+with sigma = gyro_rate_error_pct / 100 and w the measured body rate of the
+interval (``rate_error_q``; Groves 2nd ed. sec. 4.4.2 and 14.2.6 for the
+error sources, the white-noise equivalent as in 14.2.6).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .. import units
-from ..params import FLOATS, nonneg, positive, with_aliases
+from ..params import FLOAT, FLOATS, nonneg, positive, with_aliases
 from .base import Block, NoiseInput
 
 
@@ -35,10 +53,26 @@ class Attitude(Block):
                      ("gyro_arw_rad_per_sqrt_s", 1.0 / float(units.deg_per_sqrt_hr(1.0)), "rad/sqrt(s)"),
                      ("gyro_arw_deg_per_hr_per_sqrt_hz", 1.0 / 60.0, "deg/h/sqrt(Hz)"),
                      ("gyro_arw_deg_per_s_per_sqrt_hz", 60.0, "deg/s/sqrt(Hz), MEMS data sheets")),
+        nonneg("gyro_rate_error_pct", FLOAT, 0.0,
+               "1-sigma gyro scale-factor + cross-axis error, % of the body rate, as rate-proportional attitude "
+               "noise (0: none; see core.blocks.nav)"),
+        positive("gyro_rate_error_tau_s", FLOAT, 1.0,
+                 "correlation time of the rate-proportional gyro error (s): half a turn's duration"),
     )
 
     def prior_sigma(self, cfg):
         return units.arcmin(cfg.init_att_sigma_arcmin)
+
+    @staticmethod
+    def rate_error_q(cfg, dtheta_b_rad, dt_s: float) -> float:
+        """Variance (rad^2, per axis, isotropic) the rate-proportional gyro
+        error adds to the attitude over one interval with body increment
+        ``dtheta_b_rad`` (module docstring): 2 sigma^2 |dtheta|^2 tau / dt."""
+        pct = cfg.gyro_rate_error_pct
+        if pct <= 0.0 or dt_s <= 0.0:
+            return 0.0
+        d = dtheta_b_rad
+        return 2.0 * (pct * 0.01) ** 2 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * cfg.gyro_rate_error_tau_s / dt_s
 
     def noise(self, cfg):
         arw = units.deg_per_sqrt_hr(cfg.gyro_arw_deg_per_sqrt_hr)

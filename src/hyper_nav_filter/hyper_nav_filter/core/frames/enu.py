@@ -59,12 +59,13 @@ class EnuFrame:
         return x[X_C].reshape(3, 3)
 
     # ---- mechanization ---------------------------------------------------------------
-    def mechanize(self, x, t_s, dth, dv, dth_p, dv_p, dt_s) -> np.ndarray:
-        """Nominal vector at t_s + dt_s from corrected increments (``mechanization.step``)."""
+    def mechanize(self, x, t_s, dth, dv, dth_p, dv_p, dt_s, dt_p_s=None) -> np.ndarray:
+        """Nominal vector at t_s + dt_s from corrected increments (``mechanization.step``);
+        ``dt_p_s`` the previous interval (None: equal to dt_s)."""
         if dth_p is None:
             dth_p = dv_p = np.zeros(3)
         lat1, lon1, alt1, v1, C1 = mechanization.step(x[X_LAT], x[X_LON], x[X_ALT], x[X_VEL], x[X_C].reshape(3, 3),
-                                                      x[X_VPREV], dth, dv, dth_p, dv_p, dt_s)
+                                                      x[X_VPREV], dth, dv, dth_p, dv_p, dt_s, dt_p_s)
         out = np.empty(NOMINAL_SIZE)
         out[X_LAT], out[X_LON], out[X_ALT] = lat1, lon1, alt1
         out[X_VEL] = v1

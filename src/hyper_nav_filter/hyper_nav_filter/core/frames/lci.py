@@ -108,9 +108,12 @@ class LciFrame:
         return x[X_C].reshape(3, 3)
 
     # ---- mechanization ---------------------------------------------------------------
-    def mechanize(self, x, t_s, dth, dv, dth_p, dv_p, dt_s) -> np.ndarray:
+    def mechanize(self, x, t_s, dth, dv, dth_p, dv_p, dt_s, dt_p_s=None) -> np.ndarray:
         """Eq. 6 over one interval: attitude, velocity, position from the body
-        increments, gravitation at the mid-interval extrapolated position."""
+        increments, gravitation at the mid-interval extrapolated position.
+        ``dt_p_s`` (the previous interval) is not used: this frame's
+        correction terms assume equal intervals (the ENU frame weights them,
+        ``mechanization.two_sample_factor``)."""
         inc = increments_one_plus_previous(dth, dv, dth_p, dv_p, dt_s)
         C0, v0, r0 = x[X_C].reshape(3, 3), x[X_V], x[X_R]
         g_mid = self.gravity(r0 + 0.5 * dt_s * v0, t_s + 0.5 * dt_s)

@@ -417,7 +417,16 @@ class RawPseudoranges:
     inter-system-bias column and range-bias slot per satellite
     (``blocks.range_bias``); ``state_resets`` the slots taken anew
     (``ErrorStateKF.apply_resets``); ``unslotted_var_m2`` the bias variance
-    added to satellites without a slot."""
+    added to satellites without a slot. ``epoch``: for one satellite of a
+    per-satellite epoch, (the epoch's observations, their states, this
+    satellite's row): the corrections (satellite clock, ionosphere,
+    troposphere, weights, elevation mask) are then computed for all the
+    epoch's satellites once per pass over the epoch, at the nominal state
+    of the first satellite's update (``ModelContext.cache``), instead of
+    once per satellite: the state moves by centimetres between the
+    satellites' updates, which changes these corrections by micrometres.
+    Measured on the walk_0827 log (14.6 satellites per epoch): the
+    correction step took 4.2 s of a 14 s profiled replay, 0.6 s after."""
     t_s: float
     raw: RawGnssEpoch
     channels: np.ndarray
@@ -433,6 +442,7 @@ class RawPseudoranges:
     bias_block: str = ""
     state_resets: tuple = ()
     unslotted_var_m2: float = 0.0
+    epoch: tuple | None = None
     coupling = "tight"
 
     @property
@@ -441,9 +451,24 @@ class RawPseudoranges:
             return self.observations.sat_ids
         return [f"{self.raw.system[k]}{int(self.raw.prn[k]):02d}" for k in self.channels]
 
-    def pseudoranges(self, state: NavState, lever_arm_b_m) -> Pseudoranges:
+    def pseudoranges(self, state: NavState, lever_arm_b_m, cache: dict | None = None) -> Pseudoranges:
         r_ant, clk = nominal_receiver(state, lever_arm_b_m, self.t_s)
-        if self.observations is None:
+        if self.epoch is not None and cache is not None:
+            obs_all, states_all, row = self.epoch
+            key = ("pseudoranges", id(obs_all))
+            hit = cache.get(key)
+            if hit is None:
+                p_all, keep_all = _real_pseudoranges(obs_all, self.raw, r_ant, clk, self.receiver, self.use_rates,
+                                                     states_all)
+                hit = cache[key] = (p_all, {int(k): j for j, k in enumerate(keep_all)})
+            p_all, where = hit
+            j = where.get(row)
+            keep = np.zeros(1 if j is not None else 0, int)
+            sl = slice(j, j + 1) if j is not None else slice(0, 0)
+            p = Pseudoranges(p_all.t_s, p_all.sat_pos_e_m[sl], p_all.sat_vel_e_mps[sl], p_all.pseudorange_m[sl],
+                             p_all.pseudorange_var_m2[sl], p_all.rate_mps[sl] if len(p_all.rate_mps) else p_all.rate_mps,
+                             p_all.rate_var_m2ps2[sl] if len(p_all.rate_var_m2ps2) else p_all.rate_var_m2ps2)
+        elif self.observations is None:
             p = corrected_pseudoranges(self.raw, self.channels, self.ephemerides, r_ant, self.corrections, clk,
                                        self.use_rates)
             keep = None
@@ -459,7 +484,7 @@ class RawPseudoranges:
         return replace(p, isb_col=isb, bias_slot=slot, bias_block=self.bias_block)
 
     def model(self, state: NavState, layout, ctx):
-        return self.pseudoranges(state, ctx.lever_arm_b_m).model(state, layout, ctx)
+        return self.pseudoranges(state, ctx.lever_arm_b_m, getattr(ctx, "cache", None)).model(state, layout, ctx)
 
 
 def _real_pseudoranges(obs, raw, r_ant, clk, receiver, use_rates, states=None):
@@ -495,7 +520,13 @@ class TightGnssInput:
     system has a record, or until the filter time passes its epoch by
     ``hold_s`` (then the channels without one are dropped). Keep ``hold_s``
     below the engine's ``output_delay_s`` so that released solutions do not
-    depend on the arrival order.
+    depend on the arrival order. A satellite still without a record when
+    its epoch's hold ran out is not waited for again for ``absent_retry_s``
+    (filter time): a tracked satellite whose ephemeris is never broadcast
+    or never decoded (walk_0827: G18 and C50 for the whole log) would
+    otherwise hold every epoch for ``hold_s`` and make every measurement
+    late, re-processing ``hold_s`` of IMU epochs each time (measured on the
+    walk: 37118 re-processed epochs for 18549 IMU samples, 2x the work).
 
     ``receiver``: a :class:`.receiver_model.ReceiverModel` for real signals
     (None: the simulated receiver's channels); ``per_satellite``: one
@@ -507,8 +538,12 @@ class TightGnssInput:
 
     def __init__(self, corrections: ReceiverCorrections | None = None, use_rates: bool = False,
                  hold_s: float = 0.5, receiver=None, per_satellite: bool = False,
-                 range_bias_release_s: float = 30.0):
+                 range_bias_release_s: float = 30.0, absent_retry_s: float = 30.0):
         self.corrections = corrections if corrections is not None else ReceiverCorrections()
+        self.absent_retry_s = float(absent_retry_s)
+        self._absent: dict[tuple, float] = {}      # (system, prn) -> epoch whose hold ran out without its record
+        self._version = 0                          # bumped when a record comes or a satellite is given up
+        self._incomplete_at: dict[int, int] = {}   # id(pending epoch) -> version it was found incomplete at
         self.use_rates = bool(use_rates)
         self.hold_s = float(hold_s)
         self.receiver = receiver
@@ -523,6 +558,7 @@ class TightGnssInput:
         """Store a record received at ``received_s`` (its message's stamp);
         raises MalformedGnssInput for an invalid one."""
         self.ephemerides.add(eph, received_s)
+        self._version += 1
 
     def add_klobuchar(self, system: str, alpha, beta) -> None:
         """A broadcast Klobuchar set (GnssEphemeris.klobuchar_*) for the real-signal model."""
@@ -538,14 +574,45 @@ class TightGnssInput:
 
     def _complete(self, raw: RawGnssEpoch) -> bool:
         t = raw.t_rx_gpst_s
+        return not self._missing(raw, waited_for=True)
+
+    def _missing(self, raw: RawGnssEpoch, waited_for: bool) -> list[tuple]:
+        """Locked channels of a supported system without an ephemeris record at
+        the epoch, as (system, prn); with ``waited_for`` only those still worth
+        waiting for (not given up within ``absent_retry_s`` before the epoch)."""
+        t = raw.t_rx_gpst_s
         systems = SUPPORTED_SYSTEMS if self.receiver is None else tuple(self.receiver.plan)
-        return all(self.ephemerides.select(s, p, t, raw.t_s) is not None
-                   for s, p, ok in zip(raw.system, raw.prn, raw.locked) if ok and s in systems)
+        out = []
+        for s, p, ok in zip(raw.system, raw.prn, raw.locked):
+            if not ok or s not in systems:
+                continue
+            if waited_for and raw.t_s - self._absent.get((s, int(p)), -math.inf) < self.absent_retry_s:
+                continue
+            if self.ephemerides.select(s, p, t, raw.t_s) is None:
+                out.append((s, int(p)))
+                if waited_for:
+                    break
+        return out
 
     def ready(self, t_now_s: float) -> list[RawGnssEpoch]:
         """Pending epochs to process now (complete ones, and those held past
-        hold_s at filter time t_now_s), in epoch order."""
-        out = [r for r in self._pending if r.t_s <= t_now_s - self.hold_s or self._complete(r)]
+        hold_s at filter time t_now_s), in epoch order. The satellites an
+        epoch held past hold_s still lacks are given up for absent_retry_s."""
+        out = []
+        for r in self._pending:
+            # an epoch found incomplete stays so until a record comes or a satellite is given up (_version)
+            if self._incomplete_at.get(id(r)) != self._version and self._complete(r):
+                out.append(r)
+            elif r.t_s <= t_now_s - self.hold_s:
+                out.append(r)
+                for key in self._missing(r, waited_for=False):
+                    self._absent[key] = float(r.t_s)
+                    self._version += 1
+                self.counters["epochs_held_out"] += 1
+            else:
+                self._incomplete_at[id(r)] = self._version
+        for r in out:
+            self._incomplete_at.pop(id(r), None)
         if out:
             self._pending = [r for r in self._pending if not any(r is o for o in out)]
         return sorted(out, key=lambda r: r.t_s)
@@ -605,7 +672,7 @@ class TightGnssInput:
                 self.corrections, observations=None if obs is None else obs.subset(sl),
                 states=None if states is None else states.subset(sl),
                 isb_col=None if isb is None else isb[sl], bias_slot=None if slots is None else slots[sl],
-                state_resets=res_k, **common))
+                state_resets=res_k, epoch=None if obs is None else (obs, states, k), **common))
         return out
 
     def feed(self, engine) -> int:
