@@ -3,7 +3,7 @@
 Velocity, position and attitude updates from IMU increments, with the
 two-sample (current + previous interval) coning and sculling corrections
 (seed 001 section 3, after Savage; the same algorithm family as KF-GINS),
-weighted for unequal intervals (``two_sample_factor``).
+weighted for unequal intervals (``two_sample_divisor``).
 Gravity, Earth rate and transport rate are evaluated at the mid-interval
 position and velocity, extrapolated from the previous epoch.
 """
@@ -16,8 +16,11 @@ from .attitude import cross3, orthonormalize, rotvec_to_C, skew
 from .nav_state import ImuSample, NavState
 
 
-def two_sample_factor(dt_s: float, dt_prev_s: float | None) -> float:
-    """Weight k of the two-sample coning and sculling cross products for
+EQUAL_INTERVALS_REL = 1e-9     # intervals this close (relative) count as equal: the stamps' float noise
+
+
+def two_sample_divisor(dt_s: float, dt_prev_s: float | None) -> float:
+    """1 / k, the divisor of the two-sample coning and sculling cross products for
     intervals of unequal length (previous h1 = ``dt_prev_s``, current
     h2 = ``dt_s``): with the rate and specific force linear in time over
     both intervals (w = a + b t, f = c + d t, t = 0 at the interval
@@ -30,25 +33,29 @@ def two_sample_factor(dt_s: float, dt_prev_s: float | None) -> float:
 
         k = h2^2 / (6 h1 (h1 + h2))        (= 1/12 for h1 = h2: Savage's two-sample form)
 
-    Exactly 1/12 when the intervals are equal or there is no previous one.
-    The increments must be the integrals over each interval (the importer's
+    Returned as the divisor 6 h1 (h1 + h2) / h2^2, exactly 12.0 when the
+    intervals are equal to ``EQUAL_INTERVALS_REL`` or there is no previous
+    one, so a uniform-rate stream computes ``x / 12.0`` as before, bit for
+    bit (recorded bags and regressions replay unchanged). The increments
+    must be the integrals over each interval (the importer's
     rate-to-increment conversion: docs/walk_imu.md)."""
-    if dt_prev_s is None or dt_prev_s <= 0.0 or dt_prev_s == dt_s:
-        return 1.0 / 12.0
-    return dt_s * dt_s / (6.0 * dt_prev_s * (dt_prev_s + dt_s))
+    if dt_prev_s is None or dt_prev_s <= 0.0 or abs(dt_prev_s - dt_s) <= EQUAL_INTERVALS_REL * dt_s:
+        return 12.0
+    return 6.0 * dt_prev_s * (dt_prev_s + dt_s) / (dt_s * dt_s)
 
 
-def coning_rotation_vector(dtheta_b_rad, dtheta_prev_b_rad, k: float = 1.0 / 12.0):
+def coning_rotation_vector(dtheta_b_rad, dtheta_prev_b_rad, divisor: float = 12.0):
     """Body rotation vector over the interval with the two-sample coning term
-    (``k``: ``two_sample_factor``, 1/12 for equal intervals)."""
-    return dtheta_b_rad + k * cross3(dtheta_prev_b_rad, dtheta_b_rad)
+    (``divisor``: ``two_sample_divisor``, 12 for equal intervals)."""
+    return dtheta_b_rad + cross3(dtheta_prev_b_rad, dtheta_b_rad) / divisor
 
 
-def sculling_velocity_increment(dtheta_b_rad, dvel_b_mps, dtheta_prev_b_rad, dvel_prev_b_mps, k: float = 1.0 / 12.0):
+def sculling_velocity_increment(dtheta_b_rad, dvel_b_mps, dtheta_prev_b_rad, dvel_prev_b_mps,
+                                divisor: float = 12.0):
     """Body velocity increment with rotation and two-sample sculling terms
-    (``k``: ``two_sample_factor``, 1/12 for equal intervals)."""
+    (``divisor``: ``two_sample_divisor``, 12 for equal intervals)."""
     return (dvel_b_mps + 0.5 * cross3(dtheta_b_rad, dvel_b_mps)
-            + k * (cross3(dtheta_prev_b_rad, dvel_b_mps) + cross3(dvel_prev_b_mps, dtheta_b_rad)))
+            + (cross3(dtheta_prev_b_rad, dvel_b_mps) + cross3(dvel_prev_b_mps, dtheta_b_rad)) / divisor)
 
 
 def compensate(imu: ImuSample, state: NavState) -> tuple[np.ndarray, np.ndarray]:
@@ -85,7 +92,7 @@ def step(lat, lon, alt, v0, C_b_n, v_prev, dth, dv, dth_p, dv_p, dt, dt_p=None):
     zeros at the first step) of length ``dt_p`` (None: equal to dt):
     returns (lat, lon, alt, vel_enu, C_b_n) at the end. Longitude is
     wrapped to [-pi, pi)."""
-    k = two_sample_factor(dt, dt_p)
+    d = two_sample_divisor(dt, dt_p)
     # --- velocity: extrapolate position/velocity to mid-interval
     v_mid_ex = 1.5 * v0 - 0.5 * v_prev
     rates = earth.geodetic_rates(lat, alt, v0)
@@ -93,7 +100,7 @@ def step(lat, lon, alt, v0, C_b_n, v_prev, dth, dv, dth_p, dv_p, dt, dt_p=None):
     w_ie = earth.omega_ie_n(lat_m)
     w_en = earth.omega_en_n(lat_m, alt_m, v_mid_ex)
     zeta = (w_ie + w_en) * dt
-    dv_f_b = sculling_velocity_increment(dth, dv, dth_p, dv_p, k)
+    dv_f_b = sculling_velocity_increment(dth, dv, dth_p, dv_p, d)
     dv_f_n = (np.eye(3) - 0.5 * skew(zeta)) @ C_b_n @ dv_f_b
     g_n = earth.gravity_n(lat_m, alt_m)
     dv_g = (g_n - cross3(2.0 * w_ie + w_en, v_mid_ex)) * dt
@@ -108,7 +115,7 @@ def step(lat, lon, alt, v0, C_b_n, v_prev, dth, dv, dth_p, dv_p, dt, dt_p=None):
     _, r_n = earth.radii(lat_mid)
     lon1 = earth.wrap_lon_rad(lon + v_mid[0] / ((r_n + alt_mid) * np.cos(lat_mid)) * dt)
     # --- attitude: body rotation with coning, nav-frame rotation at mid-interval
-    phi_b = coning_rotation_vector(dth, dth_p, k)
+    phi_b = coning_rotation_vector(dth, dth_p, d)
     zeta = (earth.omega_ie_n(lat_mid) + earth.omega_en_n(lat_mid, alt_mid, v_mid)) * dt
     C1 = rotvec_to_C(-zeta) @ C_b_n @ rotvec_to_C(phi_b)
     return lat1, lon1, alt1, v1, orthonormalize(C1)

@@ -1,5 +1,5 @@
 """Two-sample coning and sculling terms on uneven IMU intervals
-(``mechanization.two_sample_factor``), against analytic truth.
+(``mechanization.two_sample_divisor``), against analytic truth.
 
 Coning: the classical coning motion (Savage 1998, Strapdown Analytics
 sec. 7.1.1.1): body attitude q(t) = [cos(a/2), sin(a/2) cos(W t),
@@ -58,7 +58,7 @@ def _C_true(t):
 def _attitude_error_rad(t_edges, mode):
     """|rotation vector| of C_est C_true^T at the end: mode 'none' (rotation
     increments only), 'equal' (1/12 weight whatever the intervals), 'uneven'
-    (two_sample_factor)."""
+    (two_sample_divisor)."""
     dth = _increments(t_edges)
     dts = np.diff(t_edges)
     C = _C_true(t_edges[0])
@@ -67,7 +67,7 @@ def _attitude_error_rad(t_edges, mode):
         if prev is None or mode == "none":
             phi = dth[k]
         else:
-            kk = 1.0 / 12.0 if mode == "equal" else mechanization.two_sample_factor(dts[k], dts[k - 1])
+            kk = 12.0 if mode == "equal" else mechanization.two_sample_divisor(dts[k], dts[k - 1])
             phi = mechanization.coning_rotation_vector(dth[k], prev, kk)
         C = C @ rotvec_to_C(phi)
         prev = dth[k]
@@ -81,11 +81,12 @@ def _time_line(jitter, seed=0):
     return np.concatenate([[0.0], np.cumsum(dt)])
 
 
-def test_two_sample_factor_is_savage_for_equal_intervals():
-    assert mechanization.two_sample_factor(0.01, 0.01) == 1.0 / 12.0
-    assert mechanization.two_sample_factor(0.01, None) == 1.0 / 12.0
+def test_two_sample_divisor_is_savage_for_equal_intervals():
+    assert mechanization.two_sample_divisor(0.01, 0.01) == 12.0
+    assert mechanization.two_sample_divisor(0.01, 0.01 * (1 + 1e-12)) == 12.0        # stamp float noise
+    assert mechanization.two_sample_divisor(0.01, None) == 12.0
     # a longer current interval weighs the cross product more: h2^2 / (6 h1 (h1 + h2))
-    assert mechanization.two_sample_factor(0.02, 0.01) == pytest.approx(0.0004 / (6 * 0.01 * 0.03), rel=1e-15)
+    assert mechanization.two_sample_divisor(0.02, 0.01) == pytest.approx(6 * 0.01 * 0.03 / 0.0004, rel=1e-15)
 
 
 def test_coning_on_uniform_intervals_removes_the_drift():

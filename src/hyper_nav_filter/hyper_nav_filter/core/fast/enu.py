@@ -44,11 +44,12 @@ def omega_in(lat, alt, v):
 @njit(cache=True)
 def mechanize(x, dth, dv, dth_p, dv_p, dt, dt_p, out):
     """``mechanization.step`` on the nominal vector; writes ``out``. ``dt_p``:
-    the previous interval (<= 0: none), for ``mechanization.two_sample_factor``."""
-    if dt_p <= 0.0 or dt_p == dt:
-        k = 1.0 / 12.0
+    the previous interval (<= 0: none), for ``mechanization.two_sample_divisor``
+    (the same rule: 12.0 for intervals equal to 1e-9 relative)."""
+    if dt_p <= 0.0 or abs(dt_p - dt) <= 1e-9 * dt:
+        d = 12.0
     else:
-        k = dt * dt / (6.0 * dt_p * (dt_p + dt))
+        d = 6.0 * dt_p * (dt_p + dt) / (dt * dt)
     lat, lon, alt = x[0], x[1], x[2]
     v0 = x[3:6].copy()
     C = x[6:15].copy().reshape(3, 3)
@@ -59,7 +60,7 @@ def mechanize(x, dth, dv, dth_p, dv_p, dt, dt_p, out):
     alt_m = alt + 0.5 * dt * v0[2]
     w_ie, w_en = omega_in(lat_m, alt_m, v_mid_ex)
     zeta = (w_ie + w_en) * dt
-    dv_f_b = dv + 0.5 * cross(dth, dv) + k * (cross(dth_p, dv) + cross(dv_p, dth))
+    dv_f_b = dv + 0.5 * cross(dth, dv) + (cross(dth_p, dv) + cross(dv_p, dth)) / d
     dv_c = mv3(C, dv_f_b)
     dv_f_n = dv_c - 0.5 * cross(zeta, dv_c)          # (I - [zeta x] / 2) C dv
     g = gravity_up(lat_m, alt_m)
@@ -74,7 +75,7 @@ def mechanize(x, dth, dv, dth_p, dv_p, dt, dt_p, out):
     lon1 = lon + v_mid[0] / ((r_n + alt_mid) * math.cos(lat_mid)) * dt
     if not (-PI <= lon1 < PI):
         lon1 = (lon1 + PI) % (2.0 * PI) - PI
-    phi_b = dth + k * cross(dth_p, dth)
+    phi_b = dth + cross(dth_p, dth) / d
     w_ie2, w_en2 = omega_in(lat_mid, alt_mid, v_mid)
     zeta2 = (w_ie2 + w_en2) * dt
     C1 = orthonormalize(mm3(mm3(rotvec_to_C(-zeta2), C), rotvec_to_C(phi_b)))

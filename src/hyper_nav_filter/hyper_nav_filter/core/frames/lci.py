@@ -113,7 +113,7 @@ class LciFrame:
         increments, gravitation at the mid-interval extrapolated position.
         ``dt_p_s`` (the previous interval) is not used: this frame's
         correction terms assume equal intervals (the ENU frame weights them,
-        ``mechanization.two_sample_factor``)."""
+        ``mechanization.two_sample_divisor``)."""
         inc = increments_one_plus_previous(dth, dv, dth_p, dv_p, dt_s)
         C0, v0, r0 = x[X_C].reshape(3, 3), x[X_V], x[X_R]
         g_mid = self.gravity(r0 + 0.5 * dt_s * v0, t_s + 0.5 * dt_s)
