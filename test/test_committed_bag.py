@@ -64,8 +64,10 @@ def test_replay_filter_smooth_reports_the_smoother_next_to_the_filter(capsys):
 @pytest.mark.graph
 def test_committed_bag_replays_into_live_fusion_node():
     outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix, "nav/late_inputs": LateInput}
+    # held by the fusion node's allowance: it starts once the node's subscriptions have matched the player
+    # (clock_gate.InputsReady; without it a loaded run can lose the first messages, issue 22)
     player = {"bag": str(BAG), "rate": 4.0, "topics": INPUTS, "wait_for_subscribers": 1,
-              "publish_clock": False}
+              "publish_clock": False, "allowance_nodes": ["fusion"]}
     with Graph("default", nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
         with TopicCollector(outputs, domain_id=g.domain_id) as c:
             time.sleep(0.5)
