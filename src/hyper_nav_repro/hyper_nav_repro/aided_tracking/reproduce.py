@@ -134,7 +134,8 @@ def run_receiver(kind, geo, cn0_10hz, seed, t_black_on, sigma_v0_mps=0.05, sigma
             k10 = min(int(np.searchsorted(t10, t_ms[k0])), t10.size - 1)
             sv = np.hypot(sig_v[k10], clk_drift_sigma_mps)
             fd, cc = acq.aided_halfwidths(sv, 30.0 + 0.5 * sigma_a_mps2 * dt_coast[k10] ** 2, 3.0)
-            bank.set_search_cells(acq.search_cells(fd, cc, cfg.acq_doppler_bin_hz, cfg.acq_code_bin_chips))
+            bank.set_search_cells(acq.search_cells(fd, cc, cfg.acq_doppler_bin_hz, cfg.acq_code_bin_chips,
+                                                   n_parallel=2046))
         o = bank.run(f_in[k0:k0 + 1000], cn0[k0:k0 + 1000], rng)
         out_mode.append(o.mode[::10])
         out_cn0e.append(o.cn0_est_dbhz[::10])

@@ -14,7 +14,7 @@ Configuration (units in the names)::
       loop: {...}                    # LoopConfig fields overriding the mode's defaults
       speed_uncertainty_mps: 2500.0  # unaided search: Doppler not predictable
       clock_drift_uncertainty_mps: 100.0
-      n_parallel: 2046               # unaided: cells per dwell (FFT over code)
+      n_parallel: 2046               # cells per dwell (FFT over code; aided: the whole window in one dwell)
       aiding_sigma_vel_mps: 0.05     # aided: predicted-Doppler error (Gauss-Markov)
       aiding_sigma_acc_mps2: 0.001   # growth of that sigma while no fix (INS coasting)
       aiding_tau_s: 20.0
@@ -151,7 +151,7 @@ class ReceiverTracking:
             f_in, fd_in = -err, np.zeros_like(err)
             fdw, ccw = acq.aided_halfwidths(s_v, s_r, c.aiding_k_sigma)
             self.bank.set_search_cells(acq.search_cells(fdw, ccw, c.loop.acq_doppler_bin_hz,
-                                                        c.loop.acq_code_bin_chips))
+                                                        c.loop.acq_code_bin_chips, c.n_parallel))
         else:
             f_in, fd_in = f, fd
         # channel allocation: new satellites take free slots, assumed acquired at first sight
