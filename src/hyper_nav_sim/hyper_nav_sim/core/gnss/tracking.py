@@ -268,7 +268,7 @@ MODE_SEARCH, MODE_FLL, MODE_PLL = 0, 1, 2
 # channel state columns
 (S_MODE, S_PHI, S_FNCO, S_VEL, S_ACC, S_EPS, S_IC, S_QC, S_IP, S_QP, S_HAVEP, S_MSC,
  S_BI, S_BQ, S_BW, S_MSB, S_MU, S_NBD, S_NBP, S_LOCKT, S_LOWT, S_CN0E,
- S_CELL, S_TRUE, S_Q, S_DMS, S_DSTAT, S_DK, S_PEN, S_FOFF, S_COFF, S_SEARCHT, S_NACQ, S_NBLK, NS) = range(35)
+ S_CELL, S_TRUE, S_Q, S_DMS, S_DSTAT, S_DK, S_PEN, S_FOFF, S_COFF, S_SEARCHT, S_NACQ, S_NBLK, S_NCOLIM, NS) = range(36)
 
 
 def new_state(n_ch: int, f0_hz, fdot0_hzps=0.0, q_cells=1.0, cn0_start_dbhz=45.0) -> np.ndarray:
@@ -466,6 +466,8 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                 s[c, S_ACC] += tc * (w0p ** 3 * ep + wf * wf * ef)
                 s[c, S_VEL] += tc * (s[c, S_ACC] + 1.1 * w0p * w0p * ep + 1.414 * wf * ef)
                 lim = p[P_NCO_LIM]
+                if lim > 0.0 and s[c, S_NCOLIM] > lim:      # per channel: the caller's k sigma of the aiding
+                    lim = s[c, S_NCOLIM]
                 if lim > 0.0:       # aided: correction to the predicted Doppler bounded (f_in is the residual)
                     wl = 2.0 * math.pi * lim
                     if abs(s[c, S_VEL]) >= wl:
