@@ -82,6 +82,7 @@ class AidingInput:
                                                   "rejected_out_of_order": 0, "stale_epochs": 0,
                                                   "aided_epochs": 0})
     held: AidingSample | None = None
+    age_sum_s: float = 0.0          # sum of the ages of the states used (mean: / aided_epochs)
     _P_pos: np.ndarray | None = None
     _P_vel: np.ndarray | None = None
 
@@ -130,6 +131,7 @@ class AidingInput:
         P_v = Cne @ self._P_vel @ Cne.T + qa * np.eye(3)
         P_r = Cne @ (self._P_pos + self._P_vel * dt * dt) @ Cne.T + 0.25 * qa * dt * dt * np.eye(3)
         self.counts["aided_epochs"] += 1
+        self.age_sum_s += dt
         return AidingPrediction(t_s, dt, r + v * dt + 0.5 * a * dt * dt, v + a * dt, P_r, P_v)
 
 

@@ -225,6 +225,7 @@ class GnssFix:
     dop: dict
     n_sats: int
     sat_ids: list
+    clk_drift_sigma_mps: float = float("nan")   # from the PVT's velocity/drift covariance
 
 
 @dataclass
@@ -392,7 +393,15 @@ class ReceiverRun:
         self.blocks = np.floor(t_ep / EPHEMERIS_BLOCK_S)
         self.vis_cache = {}
         self.last_fix = None            # (t_s, GnssFix)
-        self.drift_hat = None           # (t_s, m/s): the receiver's own clock-drift estimate for aiding
+        self.drift_hat = None           # (t_s, m/s, m^2/s^2): the receiver's own clock-drift estimate and
+                                        # variance for the aiding
+
+    def _drift_at(self, t):
+        """The receiver's clock-drift estimate [m/s] and its sigma predicted to t
+        (two-state clock model: drift random walk q = 2 pi^2 h_-2 c^2 per s, Brown & Hwang)."""
+        t0, x, P = self.drift_hat
+        q_d = 2.0 * np.pi ** 2 * self.cfg.clock_h_m2 * C_MPS ** 2
+        return x, float(np.sqrt(P + q_d * max(t - t0, 0.0)))
 
     def _aid(self, k, t, aiding, u, carrier_hz):
         """(Doppler residual [Hz], LOS velocity sigma [m/s], range sigma [m]) per
@@ -404,16 +413,9 @@ class ReceiverRun:
         pred = aiding.predict(float(t))
         if pred is None:
             return None
-        t_fix, drift_hat = self.drift_hat
-        dt = float(t) - t_fix
-        tc = self.cfg.tracking
-        # clock-drift sigma: 0.05 m/s at its last update, growing as the two-state clock model's drift random
-        # walk over the time since (q_drift = 2 pi^2 h_-2 c^2 dt, Brown & Hwang) plus one epoch
-        q_d = 2.0 * np.pi ** 2 * self.cfg.clock_h_m2 * C_MPS ** 2
-        dt_ep = float(self.t_ep[1] - self.t_ep[0]) if self.t_ep.size > 1 else 1.0
-        s_drift = float(np.sqrt(0.05 ** 2 + q_d * (max(dt, 0.0) + dt_ep)))
+        drift_hat, s_drift = self._drift_at(float(t))
         res = doppler_residual_hz(pred, u, self.v_a[k], self.clk_d[k] - drift_hat, carrier_hz)
-        s_v, s_r = los_sigmas(pred, u, s_drift, 30.0 + s_drift * dt)
+        s_v, s_r = los_sigmas(pred, u, s_drift, 30.0 + s_drift * max(float(t) - self.drift_hat[0], 0.0))
         return res, s_v, s_r
 
     def epoch(self, k: int, aiding=None) -> GnssEpoch:
@@ -490,7 +492,9 @@ class ReceiverRun:
             P, Pv = sol.cov_pos_clk[:3, :3], sol.cov_vel_drift[:3, :3]
             fix = GnssFix(sol.r_e_m, sol.v_e_mps, float(lat), float(lon), float(alt), Cne.T @ sol.v_e_mps,
                           P, Cne.T @ P @ Cne, Pv, Cne.T @ Pv @ Cne, sol.clk_bias_m, sol.clk_drift_mps,
-                          sol.isb_m, sol.dop, int(idx.size), [sat_ids[i] for i in idx])
+                          sol.isb_m, sol.dop, int(idx.size), [sat_ids[i] for i in idx],
+                          float(np.sqrt(max(sol.cov_vel_drift[3, 3], 0.0))) if sol.cov_vel_drift is not None
+                          else float("nan"))
             self.r_prev, self.v_prev, self.t_prev = sol.r_e_m, sol.v_e_mps, t
             self.last_fix = (float(t), fix)
         if trk is not None:
@@ -501,10 +505,18 @@ class ReceiverRun:
             cm = trk.common_mode_hz() if trk.external else None
             if cm is not None and self.drift_hat is not None:
                 lam1 = C_MPS / CARRIER_HZ["G"]
-                self.drift_hat = (float(t), self.drift_hat[1] - lam1 * cm)
+                x, _ = self._drift_at(float(t))
+                self.drift_hat = (float(t), x - lam1 * cm, 0.02 ** 2)     # from the PLLs: a few cm/s
                 trk.shift_aided(cm)
-            elif fix is not None:
-                self.drift_hat = (float(t), fix.clk_drift_mps)
+            elif fix is not None and np.isfinite(fix.clk_drift_sigma_mps):
+                # a clock filter on the PVT's drift (noisy: +-0.5 m/s per epoch seen): Kalman update
+                r = max(fix.clk_drift_sigma_mps, 1e-3) ** 2
+                if self.drift_hat is None:
+                    self.drift_hat = (float(t), fix.clk_drift_mps, r)
+                else:
+                    x, s_d = self._drift_at(float(t))
+                    g = s_d ** 2 / (s_d ** 2 + r)
+                    self.drift_hat = (float(t), x + g * (fix.clk_drift_mps - x), (1 - g) * s_d ** 2)
         z = np.zeros(0)
         return GnssEpoch(
             float(t), t_g, t_g + clk_b[k] / C_MPS, sat_ids, [e.system for e in ephs],

@@ -23,8 +23,9 @@ Configuration (units in the names)::
                                      # (the fusion node's state and covariance, :mod:`.aiding`;
                                      # gnss_node subscribes nav/state; without a fresh state the
                                      # channels run unaided: wide loops, unaided search)
-      aiding_max_age_s: 1.0          # nav_state: a held state older than this is stale
-      aiding_accel_sigma_mps2: 0.5   # nav_state: unmodelled acceleration over the state's age
+      aiding_max_age_s: 2.0          # nav_state: a held state older than this is stale (the fusion
+                                     # node releases its states output_delay_s = 1 s late)
+      aiding_accel_sigma_mps2: 0.2   # nav_state: unmodelled acceleration over the state's age
 
 Per epoch (:meth:`ReceiverTracking.step`) the Doppler between epochs is the
 cubic Hermite interpolant of the epoch Dopplers and rates, C/N0 is linear.
@@ -67,8 +68,8 @@ class TrackingConfig:
     aiding_tau_s: float = 20.0
     aiding_k_sigma: float = 3.0
     aiding_source: str = "model"
-    aiding_max_age_s: float = 1.0
-    aiding_accel_sigma_mps2: float = 0.5
+    aiding_max_age_s: float = 2.0
+    aiding_accel_sigma_mps2: float = 0.2
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrackingConfig":
@@ -145,7 +146,8 @@ class ReceiverTracking:
                                                 cfg.n_parallel))
         if cfg.mode == "unaided" or self.external:
             self.bank.set_search_cells(self.q_unaided)
-        self.counts = {"aided_channel_epochs": 0, "unaided_channel_epochs": 0, "switches": 0}
+        self.counts = {"aided_channel_epochs": 0, "unaided_channel_epochs": 0, "switches": 0,
+                       "residual_beyond_k_sigma": 0, "residual_beyond_1_sigma": 0}
 
     def _aiding_sigmas(self, t):
         """(line-of-sight velocity sigma [m/s], range sigma [m]) of the prediction."""
@@ -195,6 +197,11 @@ class ReceiverTracking:
                 fdw, ccw = acq.aided_halfwidths(np.nan_to_num(s_v), np.nan_to_num(s_r), c.aiding_k_sigma)
                 q_aid = acq.search_cells(fdw, ccw, c.loop.acq_doppler_bin_hz, c.loop.acq_code_bin_chips,
                                          c.n_parallel)
+                # the simulator's own check of the prediction (the receiver cannot see it): residuals
+                # outside the loop's bound (k sigma), and beyond 1 sigma, per channel-epoch
+                ok = np.isfinite(res)
+                self.counts["residual_beyond_k_sigma"] += int(np.sum(np.abs(res[ok]) > fdw[ok]))
+                self.counts["residual_beyond_1_sigma"] += int(np.sum(np.abs(res[ok]) * c.aiding_k_sigma > fdw[ok]))
             else:
                 f_in, fd_in = f, fd
             aided_now = np.zeros(len(sat_ids), bool) if f_pred is None else np.isfinite(f_pred)
@@ -242,6 +249,14 @@ class ReceiverTracking:
                 if aided_now[k]:        # the loop's correction bounded to k sigma of this prediction
                     self.bank.state[i, S_NCOLIM] = min(fdw[k], 0.9 * 0.25 / c.loop.t_coh_s)
                 self.counts["aided_channel_epochs" if aided_now[k] else "unaided_channel_epochs"] += 1
+        if self.external and f_pred is not None and self.t_prev is not None and t_s > self.t_prev:
+            # aided residual between epochs: slope = the secant from the previous epoch (its prediction is
+            # a fresh state's, not a trajectory with a rate; a zero slope made every epoch a jerk)
+            fd_in = fd_in.copy()
+            for k, s in enumerate(sat_ids):
+                pv = self.prev.get(s)
+                if aided_now[k] and pv is not None and pv[3] is not None and np.isfinite(pv[3]):
+                    fd_in[k] = (f_in[k] - pv[0]) / (t_s - self.t_prev)
         n = c.max_channels
         if self.t_prev is not None and t_s > self.t_prev:
             n_ms = int(round((t_s - self.t_prev) * 1000.0))
