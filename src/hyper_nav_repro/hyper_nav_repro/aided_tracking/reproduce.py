@@ -20,7 +20,8 @@ receivers run the same 1 kHz tracking simulation
   error with the covariance of an INS coasting through the blackout
   (sigma_v(t)^2 = sigma_v0^2 + (sigma_a (t - t_last_fix))^2, sigma_a from the
   seed-004 accelerometer bias 100 ug, plus clock drift); the search covers +-3
-  sigma of predicted Doppler and code.
+  sigma of predicted Doppler and code, all its cells in one 0.5 s dwell (the
+  same 2046-cell FFT engine as unaided; 20 ms x 25 noncoherent).
 
 Reported (over ``--seeds`` noise seeds): C/N0 (truth) at which each channel
 loses phase lock and is dropped to search on the way into the blackout; time
@@ -29,8 +30,8 @@ from the C/N0 rising back above the aided threshold to phase lock again
 blackout, a synthetic vertical pull-up (``--pullup``: jerk up and down, added
 to the line-of-sight Doppler; the aided loops do not see it, the INS measures
 it): channels losing phase lock per receiver; JSON + PNGs.
-This is the receiver alone: closing the loop through the fusion node (the
-aiding taken from the filter's own covariance over DDS) is not done here.
+This is the receiver alone; the loop closed through the filter (the aiding
+taken from the filter's own state and covariance) is :mod:`.reproduce_blackout`.
 """
 from __future__ import annotations
 

@@ -46,7 +46,8 @@ from . import acquisition as acq
 from .signal_env import SignalEnvironment
 from .tracking import (MODE_FLL, MODE_PLL, P_ACQ_CBIN, P_ACQ_DBIN, S_ACC, S_BI, S_BQ, S_BW, S_CELL, S_CN0E, S_COFF,
                        S_DK, S_DMS, S_DSTAT, S_EPS, S_FNCO, S_FOFF, S_HAVEP, S_IC, S_LOCKT, S_MODE, S_MSB, S_MSC,
-                       S_NCOLIM, S_PEN, S_Q, S_QC, S_SEARCHT, S_TRUE, S_VEL, ChannelBank, LoopConfig, new_state, track_block)
+                       S_NBLK, S_NCOLIM, S_PEN, S_Q, S_QC, S_SEARCHT, S_TRUE, S_VEL, ChannelBank, LoopConfig,
+                       new_state, track_block)
 
 TRACK_PR_VALID, TRACK_CP_VALID, TRACK_DOPPLER_VALID, TRACK_AIDED = 1, 2, 8, 16
 _FIELDS = {"mode", "max_channels", "signal", "loop", "speed_uncertainty_mps", "clock_drift_uncertainty_mps",
@@ -300,7 +301,9 @@ class ReceiverTracking:
         aided_ch = np.where(ok, self.kind[ii], False) if self.external else np.full(len(sat_ids), c.mode == "aided")
         drop = np.where(aided_ch, c.loop.cn0_drop_dbhz, self.cfg_unaided.cn0_drop_dbhz)
         # code/Doppler valid: a tracking mode whose C/N0 estimate confirms the signal (above the drop level)
-        valid = (mode >= MODE_FLL) & (np.nan_to_num(cn0_est, nan=-99.0) >= drop)
+        settle = np.where(aided_ch, c.loop.code_settle_s, self.cfg_unaided.code_settle_s)
+        settled = np.where(ok, st[ii, S_NBLK], 0.0) * 0.02 >= settle - 1e-9     # DLL settled since the handover
+        valid = (mode >= MODE_FLL) & (np.nan_to_num(cn0_est, nan=-99.0) >= drop) & settled
         flags = np.zeros(len(sat_ids), np.uint8)
         flags |= np.where(valid, TRACK_PR_VALID | TRACK_DOPPLER_VALID, 0).astype(np.uint8)
         flags |= np.where(valid & (mode == MODE_PLL), TRACK_CP_VALID, 0).astype(np.uint8)

@@ -175,6 +175,8 @@ class LoopConfig:
     acq_code_bin_chips: float = 0.5
     nco_limit_hz: float = 0.0
     pli_min_s: float = 0.2
+    code_settle_s: float = 1.0
+    dll_pull_bn_hz: float = 0.0
 
     @classmethod
     def aided_default(cls) -> "LoopConfig":
@@ -201,14 +203,23 @@ class LoopConfig:
         * lock detectors that start as growing-memory averages after a handover
           (no startup transient of the exponential filter), phase lock declared
           once the indicator has averaged 0.2 s (``pli_min_s``) with a 0.3 s
-          memory (``pli_tau_s``; 0.5 s added about 0.3 s)."""
+          memory (``pli_tau_s``; 0.5 s added about 0.3 s);
+        * code: the handover leaves up to +-0.25 chip (75 m) of code error that
+          the 0.1 Hz DLL removes with a 2.5 s time constant; the DLL pulls in at
+          2 Hz for ``code_settle_s`` (1 s) after a handover and the pseudorange
+          is reported valid only after it (:mod:`.receiver_tracking`): a
+          filter fed the unsettled code took tens of metres of error."""
         return cls(t_coh_s=0.02, bn_pll_hz=3.0, bn_fll_hz=0.05, bn_dll_hz=0.1, acq_t_coh_ms=20, acq_k_noncoh=25,
-                   acq_doppler_bin_hz=2.0, pli_tau_s=0.3, pli_min_s=0.2, nco_limit_hz=3.0)
+                   acq_doppler_bin_hz=2.0, pli_tau_s=0.3, pli_min_s=0.2, nco_limit_hz=3.0, dll_pull_bn_hz=2.0)
 
     def validate(self):
         n = round(self.t_coh_s / DT_MS_S)
         if not (np.isfinite(self.t_coh_s) and n >= 1 and abs(n * DT_MS_S - self.t_coh_s) < 1e-9 and n <= 20):
             raise ValueError(f"t_coh_s: expected a whole number of ms in [1, 20] ms, got {self.t_coh_s!r}")
+        if not (np.isfinite(self.code_settle_s) and 0 <= self.code_settle_s <= 10):
+            raise ValueError(f"code_settle_s: expected in [0, 10] s, got {self.code_settle_s!r}")
+        if not (np.isfinite(self.dll_pull_bn_hz) and 0 <= self.dll_pull_bn_hz and 4 * self.dll_pull_bn_hz * self.t_coh_s < 1):
+            raise ValueError(f"dll_pull_bn_hz: expected 0 (off) or 4 B_n t_coh_s < 1, got {self.dll_pull_bn_hz!r}")
         if not (np.isfinite(self.pli_min_s) and 0 <= self.pli_min_s <= 10):
             raise ValueError(f"pli_min_s: expected in [0, 10] s, got {self.pli_min_s!r}")
         for k in ("bn_pll_hz", "bn_fll_hz", "bn_dll_hz", "carrier_hz", "chip_rate_hz", "pli_tau_s", "cn0_tau_s",
@@ -258,11 +269,14 @@ class LoopConfig:
         p[P_ACQ_CBIN] = self.acq_code_bin_chips
         p[P_NCO_LIM] = self.nco_limit_hz
         p[P_PLI_MIN] = round(self.pli_min_s / 0.02)
+        p[P_SETTLE] = round(self.code_settle_s / 0.02)
+        p[P_BN_PULL] = self.dll_pull_bn_hz
         return p
 
 
 (P_NCOH, P_W0P, P_W0F, P_KDLL, P_BN_DLL, P_D, P_RATIO, P_PLI_A, P_PLI_ON, P_PLI_OFF, P_CN0_A, P_DROP, P_HOLD,
- P_ACQ_NCOH, P_ACQ_K, P_ACQ_THR, P_ACQ_PEN, P_ACQ_DBIN, P_ACQ_CBIN, P_NCO_LIM, P_PLI_MIN, NP) = range(22)
+ P_ACQ_NCOH, P_ACQ_K, P_ACQ_THR, P_ACQ_PEN, P_ACQ_DBIN, P_ACQ_CBIN, P_NCO_LIM, P_PLI_MIN, P_SETTLE, P_BN_PULL,
+ NP) = range(24)
 
 MODE_SEARCH, MODE_FLL, MODE_PLL = 0, 1, 2
 # channel state columns
@@ -479,11 +493,15 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                             s[c, S_VEL] = min(max(s[c, S_VEL], -wl), wl)
                         s[c, S_ACC] = 0.0           # anti-windup: no rate integrated against the bound
                 s[c, S_FNCO] = (s[c, S_VEL] + 2.4 * w0p * ep) / (2.0 * math.pi)
-                # carrier-aided DLL
+                # carrier-aided DLL (pull-in bandwidth for code_settle_s after a handover, if set)
+                bn_d, kd = p[P_BN_DLL], kdll
+                if p[P_BN_PULL] > bn_d and s[c, S_NBLK] < p[P_SETTLE]:
+                    bn_d = p[P_BN_PULL]
+                    kd = 4.0 * bn_d * tc
                 cn0_eff = max(cn0 * _sinc(df * T) ** 2, 1e-6)
-                sig2 = p[P_BN_DLL] * d / (2.0 * cn0_eff) * (1.0 + 2.0 / (tc * cn0_eff * (2.0 - d)))
-                sd = math.sqrt(sig2 * (2.0 - kdll) / kdll)
-                s[c, S_EPS] -= kdll * (_scurve(s[c, S_EPS], d) + sd * n3)
+                sig2 = bn_d * d / (2.0 * cn0_eff) * (1.0 + 2.0 / (tc * cn0_eff * (2.0 - d)))
+                sd = math.sqrt(sig2 * (2.0 - kd) / kd)
+                s[c, S_EPS] -= kd * (_scurve(s[c, S_EPS], d) + sd * n3)
                 s[c, S_IP], s[c, S_QP] = Ic, Qc
                 s[c, S_HAVEP] = 1.0
                 s[c, S_IC] = 0.0
