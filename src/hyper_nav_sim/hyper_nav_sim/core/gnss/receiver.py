@@ -475,16 +475,18 @@ class ReceiverRun:
                 s_dll = dll_thermal_sigma_chips(np.nan_to_num(cn0, nan=0.0), c.tracking.loop.bn_dll_hz,
                                                 c.tracking.loop.t_coh_s, c.tracking.loop.d_chips) * CHIP_LENGTH_CA_M
                 obs.pr_sigma_m = np.hypot(obs.pr_sigma_m, s_dll)
-                # the loop's frequency jitter in the rate sigma (the Doppler is the loop's NCO): in phase
-                # lock sigma_phi 2 B_n / (2 pi) [Hz] (phase jitter over the loop's correlation time 1/(2 B_n));
-                # out of it (FLL / pull-in) a third of the FLL's range 1/(4 T). Without it the unaided
-                # receiver's rates after reacquisition (1-7 m/s off, seen) went in with 0.05 m/s sigmas.
+                # the loop's frequency error in the rate sigma (the Doppler is the NCO frequency averaged
+                # over DOPPLER_AVG_S = 0.1 s): in phase lock sqrt(2) sigma_phi / (2 pi 0.1 s) [Hz] (the phase
+                # error's change over the interval); out of it (FLL / pull-in) a third of the FLL's range
+                # 1/(4 T). Without it the unaided receiver's rates after reacquisition (1-7 m/s off, seen)
+                # went in with 0.05 m/s sigmas.
                 from .tracking import pll_thermal_sigma_deg
                 aided_ch = (te.tracking_flags & 16) > 0
                 bn = np.where(aided_ch, c.tracking.loop.bn_pll_hz, trk.cfg_unaided.bn_pll_hz)
                 tco = np.where(aided_ch, c.tracking.loop.t_coh_s, trk.cfg_unaided.t_coh_s)
                 s_phi = np.deg2rad(pll_thermal_sigma_deg(np.nan_to_num(cn0, nan=0.0), bn, tco))
-                s_f = np.where(te.mode == 2, s_phi * 2 * bn / (2 * np.pi), 1.0 / (12.0 * tco))
+                from .receiver_tracking import DOPPLER_AVG_S
+                s_f = np.where(te.mode == 2, np.sqrt(2.0) * s_phi / (2 * np.pi * DOPPLER_AVG_S), 1.0 / (12.0 * tco))
                 obs.rate_sigma_mps = np.hypot(obs.rate_sigma_mps, s_f * lam)
         else:
             obs = None

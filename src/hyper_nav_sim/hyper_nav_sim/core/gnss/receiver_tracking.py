@@ -50,6 +50,7 @@ from .tracking import (MODE_FLL, MODE_PLL, P_ACQ_CBIN, P_ACQ_DBIN, S_ACC, S_BI, 
                        new_state, track_block)
 
 TRACK_PR_VALID, TRACK_CP_VALID, TRACK_DOPPLER_VALID, TRACK_AIDED = 1, 2, 8, 16
+DOPPLER_AVG_S = 0.1         # Doppler measurement: the NCO frequency averaged over this interval
 _FIELDS = {"mode", "max_channels", "signal", "loop", "speed_uncertainty_mps", "clock_drift_uncertainty_mps",
            "n_parallel", "aiding_sigma_vel_mps", "aiding_sigma_acc_mps2", "aiding_tau_s", "aiding_k_sigma",
            "aiding_source", "aiding_max_age_s", "aiding_accel_sigma_mps2"}
@@ -259,6 +260,12 @@ class ReceiverTracking:
                 if aided_now[k] and pv is not None and pv[3] is not None and np.isfinite(pv[3]):
                     fd_in[k] = (f_in[k] - pv[0]) / (t_s - self.t_prev)
         n = c.max_channels
+        # Doppler as the receiver measures it: the NCO frequency averaged over the last DOPPLER_AVG_S
+        # (the instantaneous NCO carries the loop's proportional kick on each discriminator output)
+        df_avg = np.zeros(n)
+        n_avg = 1
+        if self.t_prev is not None and t_s > self.t_prev:
+            n_avg = max(1, min(int(round((t_s - self.t_prev) * 1000.0)), int(round(DOPPLER_AVG_S * 1000.0))))
         if self.t_prev is not None and t_s > self.t_prev:
             n_ms = int(round((t_s - self.t_prev) * 1000.0))
             tau = (np.arange(1, n_ms + 1) / n_ms)[:, None]
@@ -276,7 +283,8 @@ class ReceiverTracking:
                 F[:, i] = h00 * f0 + h10 * h * fd0 + h01 * f1 + h11 * h * fd1
                 CN[:, i] = c0 + (cn0[k] - c0) * x
             if not self.external:
-                self.bank.run(F, CN, self.rng)
+                o = self.bank.run(F, CN, self.rng)
+                df_avg[:] = o.freq_err_hz[-n_avg:].mean(axis=0)
             else:
                 noise = self.rng.standard_normal((n_ms, n, 3))
                 unif = self.rng.random((n_ms, n, 3))
@@ -289,6 +297,7 @@ class ReceiverTracking:
                                     np.ascontiguousarray(noise[:, idx]), np.ascontiguousarray(unif[:, idx]),
                                     self.p[kind], sub, *outs)
                         self.bank.state[idx] = sub
+                        df_avg[idx] = outs[2][-n_avg:].mean(axis=0)
         for k, s in enumerate(sat_ids):
             self.prev[s] = (f_in[k], fd_in[k], cn0[k], None if f_pred is None else f_pred[k])
         self.t_prev = t_s
@@ -310,7 +319,7 @@ class ReceiverTracking:
         flags |= np.where(aided_ch, TRACK_AIDED, 0).astype(np.uint8)
         return TrackingEpoch(mode, valid, cn0, cn0_est, np.where(ok, st[ii, S_LOCKT], 0.0),
                              np.where(ok & (mode >= 1), st[ii, S_EPS], 0.0),
-                             np.where(ok & (mode >= 1), f_in - st[ii, S_FNCO], 0.0), flags)
+                             np.where(ok & (mode >= 1), df_avg[ii], 0.0), flags)
 
     def common_mode_hz(self, min_channels=3):
         """Median NCO correction [Hz] of the aided channels in phase lock (what all
