@@ -89,9 +89,11 @@ def main(argv=None) -> int:
         for k in reacq:
             reacq[k] += [(seed,) + r for r in channel_reacq(rx[k], t_hold_end)]
         aid_counts.append(res["aided"].counters)
-        h5 = {c: float(np.interp(t5, r.t_s, np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1]))) for c, r in res.items()}
+        h5 = {c: float(np.interp(t5, r.t_s, np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1])))
+              for c, r in res.items()}
         print(f"[blackout] seed {seed}: horizontal error at {t5:.0f} s " +
-              ", ".join(f"{c} {v:.2f} m" for c, v in h5.items()) + f" ({time.process_time() - c0:.0f} s CPU)", flush=True)
+              ", ".join(f"{c} {v:.2f} m" for c, v in h5.items()) + f" ({time.process_time() - c0:.0f} s CPU)",
+              flush=True)
     cpu = time.process_time() - c0
     # common time grid (the solutions of every case are at the same output epochs)
     t = runs[0]["a"].t_s

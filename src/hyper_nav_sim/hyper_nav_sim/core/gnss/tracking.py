@@ -180,8 +180,9 @@ class LoopConfig:
 
     @classmethod
     def aided_default(cls) -> "LoopConfig":
-        """Narrow loops behind INS aiding: PLL 3 Hz / 20 ms, DLL 0.1 Hz. Reacquisition choices (issue 23, measured on a C/N0 ramp of
-        1.25 dB/s through the aided threshold, ``docs/gnss-receiver-tracking.md``):
+        """Narrow loops behind INS aiding: PLL 3 Hz / 20 ms, DLL 0.1 Hz.
+        Reacquisition choices (issue 23, measured on a C/N0 ramp of 1.25 dB/s
+        through the aided threshold, ``docs/gnss-receiver-tracking.md``):
 
         * acquisition 20 ms coherent x 25 noncoherent (0.5 s dwell): the aided
           window is a few cells, all tested in one dwell by the channel's
@@ -218,7 +219,8 @@ class LoopConfig:
             raise ValueError(f"t_coh_s: expected a whole number of ms in [1, 20] ms, got {self.t_coh_s!r}")
         if not (np.isfinite(self.code_settle_s) and 0 <= self.code_settle_s <= 10):
             raise ValueError(f"code_settle_s: expected in [0, 10] s, got {self.code_settle_s!r}")
-        if not (np.isfinite(self.dll_pull_bn_hz) and 0 <= self.dll_pull_bn_hz and 4 * self.dll_pull_bn_hz * self.t_coh_s < 1):
+        if not (np.isfinite(self.dll_pull_bn_hz) and 0 <= self.dll_pull_bn_hz
+                and 4 * self.dll_pull_bn_hz * self.t_coh_s < 1):
             raise ValueError(f"dll_pull_bn_hz: expected 0 (off) or 4 B_n t_coh_s < 1, got {self.dll_pull_bn_hz!r}")
         if not (np.isfinite(self.pli_min_s) and 0 <= self.pli_min_s <= 10):
             raise ValueError(f"pli_min_s: expected in [0, 10] s, got {self.pli_min_s!r}")
