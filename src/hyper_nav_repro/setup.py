@@ -27,6 +27,7 @@ setup(
         "tc_consistency = hyper_nav_repro.seed004.tc_consistency:main",
         # issue 23: unaided vs INS-aided receiver tracking through a plasma blackout
         "repro_aided_tracking = hyper_nav_repro.aided_tracking.reproduce:main",
+        "repro_aided_blackout = hyper_nav_repro.aided_tracking.reproduce_blackout:main",
         # seed 002's L-EKF parameter set (make train-lekf)
         "train_lekf = hyper_nav_repro.seed002.train_lekf:main",
     ]},

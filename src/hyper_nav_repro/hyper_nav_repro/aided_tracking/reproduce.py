@@ -20,7 +20,8 @@ receivers run the same 1 kHz tracking simulation
   error with the covariance of an INS coasting through the blackout
   (sigma_v(t)^2 = sigma_v0^2 + (sigma_a (t - t_last_fix))^2, sigma_a from the
   seed-004 accelerometer bias 100 ug, plus clock drift); the search covers +-3
-  sigma of predicted Doppler and code.
+  sigma of predicted Doppler and code, all its cells in one 0.5 s dwell (the
+  same 2046-cell FFT engine as unaided; 20 ms x 25 noncoherent).
 
 Reported (over ``--seeds`` noise seeds): C/N0 (truth) at which each channel
 loses phase lock and is dropped to search on the way into the blackout; time
@@ -29,8 +30,8 @@ from the C/N0 rising back above the aided threshold to phase lock again
 blackout, a synthetic vertical pull-up (``--pullup``: jerk up and down, added
 to the line-of-sight Doppler; the aided loops do not see it, the INS measures
 it): channels losing phase lock per receiver; JSON + PNGs.
-This is the receiver alone: closing the loop through the fusion node (the
-aiding taken from the filter's own covariance over DDS) is not done here.
+This is the receiver alone; the loop closed through the filter (the aiding
+taken from the filter's own state and covariance) is :mod:`.reproduce_blackout`.
 """
 from __future__ import annotations
 
@@ -134,7 +135,8 @@ def run_receiver(kind, geo, cn0_10hz, seed, t_black_on, sigma_v0_mps=0.05, sigma
             k10 = min(int(np.searchsorted(t10, t_ms[k0])), t10.size - 1)
             sv = np.hypot(sig_v[k10], clk_drift_sigma_mps)
             fd, cc = acq.aided_halfwidths(sv, 30.0 + 0.5 * sigma_a_mps2 * dt_coast[k10] ** 2, 3.0)
-            bank.set_search_cells(acq.search_cells(fd, cc, cfg.acq_doppler_bin_hz, cfg.acq_code_bin_chips))
+            bank.set_search_cells(acq.search_cells(fd, cc, cfg.acq_doppler_bin_hz, cfg.acq_code_bin_chips,
+                                                   n_parallel=2046))
         o = bank.run(f_in[k0:k0 + 1000], cn0[k0:k0 + 1000], rng)
         out_mode.append(o.mode[::10])
         out_cn0e.append(o.cn0_est_dbhz[::10])

@@ -13,6 +13,15 @@ fixes are the antenna truth plus white noise.
 
 Messages are released ``gnss.latency_s`` after their epoch (receiver
 latency); header.stamp stays the measurement epoch.
+
+Aiding loop (issue 23; ``gnss.raw.tracking.aiding_source: nav_state``, off by
+default): the node subscribes ``nav/state`` (hyper_nav_msgs/NavState,
+remappable), hands each message to ``core.gnss.aiding.AidingInput`` (refused
+and counted when non-finite, its covariance not PSD or out of order) and
+computes each receiver epoch when it is released, with the state it holds then
+(real DDS latency); a state older than ``aiding_max_age_s`` at the epoch leaves
+the receiver unaided. Fix and velocity of that epoch go out with it.
+``/diagnostics`` carries ``aiding <count>`` per counter.
 """
 from __future__ import annotations
 
@@ -53,6 +62,10 @@ class GnssNode(ClockDrivenSensor):
 
     def _setup_raw(self, sc):
         from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
+        trk = simulate.gnss_receiver(sc).cfg.tracking
+        if trk is not None and trk.aiding_source == "nav_state":
+            return self._setup_aided(sc, trk, GnssEphemeris, GnssMeasurements)
+        self.aiding = None
         self.epochs = simulate.gnss_raw_stream(sc, sc.trajectory())
         self.pub_raw = self.create_publisher(GnssMeasurements, "gnss/raw", self.qos)
         self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched_qos(200))
@@ -66,6 +79,64 @@ class GnssNode(ClockDrivenSensor):
         self.schedule(self.fixes.t_s, self.pub_fix, self._make_fix)
         self.schedule(self.fixes.t_s, self.pub_vel, self._make_vel)
 
+    def _setup_aided(self, sc, trk, GnssEphemeris, GnssMeasurements):
+        """Closed aiding loop: epochs computed at release with the held nav/state."""
+        from hyper_nav_msgs.msg import NavState
+        from ..core.gnss.aiding import AidingInput
+        from ..core.simulate import imu_epochs
+        self.aiding = AidingInput(max_age_s=trk.aiding_max_age_s, accel_sigma_mps2=trk.aiding_accel_sigma_mps2)
+        t = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
+        self.rx_run = simulate.gnss_receiver(sc).run(sc.trajectory(), t, sc.rng("gnss_raw"))
+        self.epochs = {}
+        self.pub_raw = self.create_publisher(GnssMeasurements, "gnss/raw", self.qos)
+        self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched_qos(200))
+        self._eph_cls, self._raw_cls = GnssEphemeris, GnssMeasurements
+        self._published_eph = set()
+        self.fixes, self.pos_cov, self.vel_cov = None, [], []
+        self.create_subscription(NavState, "nav/state", self._on_nav_state, self.qos)
+        self.schedule(t, self.pub_raw, self._make_raw)
+        self.scheduled["gnss/fix"] = self.scheduled["gnss/vel"] = 0
+        self.published.setdefault("gnss/fix", 0)
+        self.published.setdefault("gnss/vel", 0)
+
+    def _on_nav_state(self, msg):
+        from ..core.gnss.aiding import AidingSample
+        from hyper_nav_filter.conversions import stamp_to_s
+        q = msg.q_b_enu
+        n = int(msg.state_dim)
+        cov = np.asarray(msg.covariance, float)
+        self.aiding.offer(AidingSample(
+            stamp_to_s(msg.header.stamp), msg.lat_rad, msg.lon_rad, msg.alt_m, np.asarray(msg.vel_enu_mps, float),
+            np.array([q.x, q.y, q.z, q.w]), np.asarray(msg.accel_b_mps2, float), list(msg.state_blocks),
+            cov.reshape(n, n) if cov.size == n * n else cov))
+
+    def _epoch(self, i):
+        """Epoch i: precomputed, or (aiding loop) computed now with the held state."""
+        if self.aiding is None:
+            return self.epochs[i]
+        e = self.rx_run.epoch(i, self.aiding)
+        self.epochs = {i: e}
+        if e.fix is not None:          # the epoch's fix and velocity go out with it
+            self.fixes = _FixArrays([e])
+            self.pos_cov, self.vel_cov = [e.fix.cov_pos_enu_m2], [e.fix.cov_vel_enu_m2ps2]
+            for pub, make, name in ((self.pub_fix, self._make_fix, "gnss/fix"),
+                                    (self.pub_vel, self._make_vel, "gnss/vel")):
+                pub.publish(make(0))
+                self.published[name] += 1
+                self.scheduled[name] += 1
+                self.last_stamp[name] = e.t_s
+        return e
+
+    def publish_diagnostics(self):
+        if getattr(self, "aiding", None) is not None:
+            counts = dict(self.aiding.counts)
+            trk = self.rx_run.trk
+            counts.update(trk.counts)
+            self._extra_diag = {f"aiding {k}": v for k, v in counts.items()}
+            n = self.aiding.counts["aided_epochs"]
+            self._extra_diag["aiding mean_age_s"] = f"{self.aiding.age_sum_s / n:.3f}" if n else "nan"
+        super().publish_diagnostics()
+
     def publishers_to_match(self):
         pubs = [self.pub_fix, self.pub_vel]
         # loosely coupled fusion takes fix/vel, tightly coupled fusion gnss/raw (+ gnss/ephemeris,
@@ -73,7 +144,7 @@ class GnssNode(ClockDrivenSensor):
         return pubs + [(self.pub_raw, self.raw_min_subscribers)] if self.raw_mode else pubs
 
     def _make_raw(self, i: int):
-        e = self.epochs[i]
+        e = self._epoch(i)
         for eph in e.ephemeris_set:            # ephemerides before the first measurement using them
             key = (eph.system, eph.prn, eph.toe)
             if key not in self._published_eph:

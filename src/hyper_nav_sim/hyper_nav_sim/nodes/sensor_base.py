@@ -101,6 +101,7 @@ class ClockDrivenSensor(Node):
         values.update({f"scheduled {k}": v for k, v in self.scheduled.items()})
         values.update({f"last {k}": f"{t:.3f}" for k, t in self.last_stamp.items()})
         values["queued"] = len(self._queue)
+        values.update(getattr(self, "_extra_diag", {}))         # a subclass's own counters
         if self.sim_time_s is not None:
             values["sim_time_s"] = f"{self.sim_time_s:.3f}"
         self.status.publish("ok", "done" if self._next == len(self._queue) else "running", values)

@@ -225,6 +225,7 @@ class GnssFix:
     dop: dict
     n_sats: int
     sat_ids: list
+    clk_drift_sigma_mps: float = float("nan")   # from the PVT's velocity/drift covariance
 
 
 @dataclass
@@ -358,109 +359,190 @@ class GnssReceiverSim:
     def simulate(self, trajectory, t_epochs_s, rng: np.random.Generator | None = None) -> list[GnssEpoch]:
         """Epochs at scenario times ``t_epochs_s`` (ascending). rng None -> noise-free
         measurements and a deterministic clock (bias + drift t)."""
-        c = self.cfg
-        t_ep = np.asarray(t_epochs_s, float)
-        r_a, v_a, a_a = self.antenna_truth(trajectory, t_ep)
-        clk_b, clk_d = _sample_clock(c, t_ep, rng)
-        lock = LockModel(c.lock)
-        trk = None
+        run = self.run(trajectory, t_epochs_s, rng)
+        return [run.epoch(k) for k in range(len(run.t_ep))]
+
+    def run(self, trajectory, t_epochs_s, rng: np.random.Generator | None = None) -> "ReceiverRun":
+        """The same simulation one epoch at a time (:meth:`ReceiverRun.epoch`), for a
+        receiver aided by a navigation state that arrives while it runs (gnss_node)."""
+        return ReceiverRun(self, trajectory, t_epochs_s, rng)
+
+
+class ReceiverRun:
+    """State of one receiver simulation between epochs; epochs in ascending order."""
+
+    def __init__(self, sim: GnssReceiverSim, trajectory, t_epochs_s, rng):
+        c = self.cfg = sim.cfg
+        self.sim, self.rng = sim, rng
+        t_ep = self.t_ep = np.asarray(t_epochs_s, float)
+        self.r_a, self.v_a, self.a_a = sim.antenna_truth(trajectory, t_ep)
+        self.clk_b, self.clk_d = _sample_clock(c, t_ep, rng)
+        self.lock = LockModel(c.lock)
+        self.trk = None
         if c.tracking is not None:
             from hyper_nav_filter.core import atmosphere
             from .receiver_tracking import ReceiverTracking
-            trk = ReceiverTracking(c.tracking, rng)
-            tr_all = trajectory.truth(t_ep)
-            mach_all = np.linalg.norm(tr_all.vel_enu_mps, axis=1) / atmosphere.speed_of_sound_mps(tr_all.alt_m)
-        iono_model = self.broadcast_ionosphere()
-        sig_fn = (pr_sigma_m if c.pseudorange_sigma_m == "elevation"
-                  else (lambda el: np.full(np.shape(el), float(c.pseudorange_sigma_m))))
-        out = []
-        r_prev = v_prev = None
-        t_prev = None
-        blocks = np.floor(t_ep / EPHEMERIS_BLOCK_S)
-        vis_cache = {}
-        for k, t in enumerate(t_ep):
-            t_g = c.start_gpst_s + t
-            eset = self.ephemeris_set(t)
-            if blocks[k] not in vis_cache:
-                vis_cache.clear()
-                vis_cache[blocks[k]] = (self._sky(eset, c.start_gpst_s + t_ep[blocks == blocks[k]]), k)
-            r_sat_all, k0 = vis_cache[blocks[k]]
-            r_sat_k = r_sat_all[:, k - k0]
-            el_all, _ = elevation_azimuth(r_a[k], r_sat_k)
-            keep = np.flatnonzero(el_all >= np.deg2rad(c.elevation_mask_deg))
-            ephs = [eset[i] for i in keep]
-            sat_ids = [e.sat_id for e in ephs]
-            n = len(ephs)
-            if n:
-                obs = compute_observables(ephs, t_g, r_a[k], v_a[k], clk_b[k], clk_d[k], iono=iono_model,
-                                          tropo=c.troposphere == "hopfield", rng=rng,
-                                          rate_sigma_mps=c.pseudorange_rate_sigma_mps, pr_sigma_fn=sig_fn,
-                                          world=self.world)
-                pr = obs.pseudorange_m
-                lam = C_MPS / obs.carrier_hz
-                # line of sight in ECEF(t) and its rate, vehicle Doppler and rate
-                d = r_sat_k[keep] - r_a[k]
-                rho = np.linalg.norm(d, axis=1)
-                u = d / rho[:, None]
-                v_rel = obs.v_sat_e_mps - v_a[k]
-                u_dot = (v_rel - u * np.einsum("ki,ki->k", u, v_rel)[:, None]) / rho[:, None]
-                fd_veh = u @ v_a[k] / lam
-                fd_veh_rate = (np.einsum("ki,i->k", u_dot, v_a[k]) + u @ a_a[k]) / lam
-                fd_lock = fd_veh if c.lock.doppler_reference == "vehicle" else -obs.geometric_rate_mps / lam
-                el = obs.el_rad
-                te = None
-                if trk is None:
-                    locked = lock.update(float(t), sat_ids, fd_lock, fd_veh_rate)
-                    cn0 = c.cn0_horizon_dbhz + (c.cn0_zenith_dbhz - c.cn0_horizon_dbhz) * np.sin(np.maximum(el, 0.0))
-                else:
-                    # lock from the 1 kHz tracking simulation (satellite Doppler rate, < 1 Hz/s, left out)
-                    te = trk.step(float(t), sat_ids, obs.doppler_hz, fd_veh_rate, el, obs.az_rad,
-                                  tr_all.C_b_n[k], tr_all.alt_m[k], mach_all[k], obs.carrier_hz)
-                    locked = te.valid
-                    cn0 = te.cn0_est_dbhz
-                    # measurement errors of the loops: code error x chip length, Doppler error x lambda
-                    from .acquisition import CHIP_LENGTH_CA_M
-                    from .tracking import dll_thermal_sigma_chips
-                    pr = pr + te.code_err_chips * CHIP_LENGTH_CA_M
-                    obs.pseudorange_rate_mps = obs.pseudorange_rate_mps + te.freq_err_hz * lam
-                    s_dll = dll_thermal_sigma_chips(np.nan_to_num(cn0, nan=0.0), c.tracking.loop.bn_dll_hz,
-                                                    c.tracking.loop.t_coh_s, c.tracking.loop.d_chips) * CHIP_LENGTH_CA_M
-                    obs.pr_sigma_m = np.hypot(obs.pr_sigma_m, s_dll)
+            self.trk = ReceiverTracking(c.tracking, rng)
+            self.tr_all = trajectory.truth(t_ep)
+            self.mach_all = (np.linalg.norm(self.tr_all.vel_enu_mps, axis=1)
+                             / atmosphere.speed_of_sound_mps(self.tr_all.alt_m))
+        self.iono_model = sim.broadcast_ionosphere()
+        self.sig_fn = (pr_sigma_m if c.pseudorange_sigma_m == "elevation"
+                       else (lambda el: np.full(np.shape(el), float(c.pseudorange_sigma_m))))
+        self.r_prev = self.v_prev = self.t_prev = None
+        self.blocks = np.floor(t_ep / EPHEMERIS_BLOCK_S)
+        self.vis_cache = {}
+        self.last_fix = None            # (t_s, GnssFix)
+        self.drift_hat = None           # (t_s, m/s, m^2/s^2): the receiver's own clock-drift estimate and
+                                        # variance for the aiding
+
+    def _drift_at(self, t):
+        """The receiver's clock-drift estimate [m/s] and its sigma predicted to t
+        (two-state clock model: drift random walk q = 2 pi^2 h_-2 c^2 per s, Brown & Hwang)."""
+        t0, x, P = self.drift_hat
+        q_d = 2.0 * np.pi ** 2 * self.cfg.clock_h_m2 * C_MPS ** 2
+        return x, float(np.sqrt(P + q_d * max(t - t0, 0.0)))
+
+    def _aid(self, k, t, aiding, u, carrier_hz):
+        """(Doppler residual [Hz], LOS velocity sigma [m/s], range sigma [m]) per
+        satellite from the navigation state held by ``aiding`` (:mod:`.aiding`), or
+        None (no fresh state, or no fix yet: the receiver's clock drift is unknown)."""
+        if aiding is None or self.drift_hat is None:
+            return None
+        from .aiding import doppler_residual_hz, los_sigmas
+        pred = aiding.predict(float(t))
+        if pred is None:
+            return None
+        drift_hat, s_drift = self._drift_at(float(t))
+        res = doppler_residual_hz(pred, u, self.v_a[k], self.clk_d[k] - drift_hat, carrier_hz)
+        s_v, s_r = los_sigmas(pred, u, s_drift, 30.0 + s_drift * max(float(t) - self.drift_hat[0], 0.0))
+        return res, s_v, s_r
+
+    def epoch(self, k: int, aiding=None) -> GnssEpoch:
+        """Epoch k; ``aiding``: an :class:`.aiding.AidingInput` (``nav_state``
+        aiding) or None."""
+        c, sim, rng, trk = self.cfg, self.sim, self.rng, self.trk
+        t_ep, r_a, v_a, a_a, clk_b, clk_d = self.t_ep, self.r_a, self.v_a, self.a_a, self.clk_b, self.clk_d
+        lock, iono_model, sig_fn = self.lock, self.iono_model, self.sig_fn
+        blocks, vis_cache = self.blocks, self.vis_cache
+        r_prev, v_prev, t_prev = self.r_prev, self.v_prev, self.t_prev
+        t = t_ep[k]
+        t_g = c.start_gpst_s + t
+        eset = sim.ephemeris_set(t)
+        if blocks[k] not in vis_cache:
+            vis_cache.clear()
+            vis_cache[blocks[k]] = (sim._sky(eset, c.start_gpst_s + t_ep[blocks == blocks[k]]), k)
+        r_sat_all, k0 = vis_cache[blocks[k]]
+        r_sat_k = r_sat_all[:, k - k0]
+        el_all, _ = elevation_azimuth(r_a[k], r_sat_k)
+        keep = np.flatnonzero(el_all >= np.deg2rad(c.elevation_mask_deg))
+        ephs = [eset[i] for i in keep]
+        sat_ids = [e.sat_id for e in ephs]
+        n = len(ephs)
+        if n:
+            obs = compute_observables(ephs, t_g, r_a[k], v_a[k], clk_b[k], clk_d[k], iono=iono_model,
+                                      tropo=c.troposphere == "hopfield", rng=rng,
+                                      rate_sigma_mps=c.pseudorange_rate_sigma_mps, pr_sigma_fn=sig_fn,
+                                      world=sim.world)
+            pr = obs.pseudorange_m
+            lam = C_MPS / obs.carrier_hz
+            # line of sight in ECEF(t) and its rate, vehicle Doppler and rate
+            d = r_sat_k[keep] - r_a[k]
+            rho = np.linalg.norm(d, axis=1)
+            u = d / rho[:, None]
+            v_rel = obs.v_sat_e_mps - v_a[k]
+            u_dot = (v_rel - u * np.einsum("ki,ki->k", u, v_rel)[:, None]) / rho[:, None]
+            fd_veh = u @ v_a[k] / lam
+            fd_veh_rate = (np.einsum("ki,i->k", u_dot, v_a[k]) + u @ a_a[k]) / lam
+            fd_lock = fd_veh if c.lock.doppler_reference == "vehicle" else -obs.geometric_rate_mps / lam
+            el = obs.el_rad
+            te = None
+            if trk is None:
+                locked = lock.update(float(t), sat_ids, fd_lock, fd_veh_rate)
+                cn0 = c.cn0_horizon_dbhz + (c.cn0_zenith_dbhz - c.cn0_horizon_dbhz) * np.sin(np.maximum(el, 0.0))
             else:
-                obs = None
-                te = None
-                locked = np.zeros(0, bool)
-            fix = None
-            need = 3 + len({e.system for e, l in zip(ephs, locked) if l})
-            if n and locked.sum() >= max(need, 4):
-                idx = np.flatnonzero(locked)
-                le = [ephs[i] for i in idx]
-                sol = solve_pvt(le, obs.t_tag_s, pr[idx], obs.pr_sigma_m[idx], obs.pseudorange_rate_mps[idx],
-                                obs.rate_sigma_mps[idx], iono_m=obs.iono_m[idx], tropo_m=obs.tropo_m[idx],
-                                r0_e_m=None if r_prev is None else r_prev + v_prev * (t - t_prev))
-                lat, lon, alt = earth.ecef_to_geodetic(sol.r_e_m)
-                Cne = earth.C_n_e(lat, lon)
-                P, Pv = sol.cov_pos_clk[:3, :3], sol.cov_vel_drift[:3, :3]
-                fix = GnssFix(sol.r_e_m, sol.v_e_mps, float(lat), float(lon), float(alt), Cne.T @ sol.v_e_mps,
-                              P, Cne.T @ P @ Cne, Pv, Cne.T @ Pv @ Cne, sol.clk_bias_m, sol.clk_drift_mps,
-                              sol.isb_m, sol.dop, int(idx.size), [sat_ids[i] for i in idx])
-                r_prev, v_prev, t_prev = sol.r_e_m, sol.v_e_mps, t
-            if trk is not None:
-                trk.note_fix(float(t), fix is not None)
-            z = np.zeros(0)
-            out.append(GnssEpoch(
-                float(t), t_g, t_g + clk_b[k] / C_MPS, sat_ids, [e.system for e in ephs],
-                np.array([e.prn for e in ephs], int),
-                pr if n else z, obs.pseudorange_rate_mps if n else z, obs.doppler_hz if n else z,
-                obs.carrier_hz if n else z, cn0 if n else z, obs.el_rad if n else z, obs.az_rad if n else z,
-                locked, obs.pr_sigma_m if n else z, obs.rate_sigma_mps if n else z,
-                obs.iono_m if n else z, obs.tropo_m if n else z, fd_veh if n else z, fd_veh_rate if n else z,
-                obs.geometric_rate_mps if n else z, ephs, eset, float(clk_b[k]), float(clk_d[k]),
-                r_a[k], v_a[k], fix, obs.iono_true_m if n else z, obs.tropo_true_m if n else z,
-                None if te is None else te.lock_time_s, None if te is None else te.tracking_flags,
-                None if te is None else te.cn0_true_dbhz))
-        return out
+                # lock from the 1 kHz tracking simulation (satellite Doppler rate, < 1 Hz/s, left out)
+                te = trk.step(float(t), sat_ids, obs.doppler_hz, fd_veh_rate, el, obs.az_rad,
+                              self.tr_all.C_b_n[k], self.tr_all.alt_m[k], self.mach_all[k], obs.carrier_hz,
+                              aid=self._aid(k, t, aiding, u, obs.carrier_hz) if trk.external else None)
+                locked = te.valid
+                cn0 = te.cn0_est_dbhz
+                # measurement errors of the loops: code error x chip length, Doppler error x lambda
+                from .acquisition import CHIP_LENGTH_CA_M
+                from .tracking import dll_thermal_sigma_chips
+                pr = pr + te.code_err_chips * CHIP_LENGTH_CA_M
+                obs.pseudorange_rate_mps = obs.pseudorange_rate_mps + te.freq_err_hz * lam
+                s_dll = dll_thermal_sigma_chips(np.nan_to_num(cn0, nan=0.0), c.tracking.loop.bn_dll_hz,
+                                                c.tracking.loop.t_coh_s, c.tracking.loop.d_chips) * CHIP_LENGTH_CA_M
+                obs.pr_sigma_m = np.hypot(obs.pr_sigma_m, s_dll)
+                # the loop's frequency error in the rate sigma (the Doppler is the NCO frequency averaged
+                # over DOPPLER_AVG_S = 0.1 s): in phase lock sqrt(2) sigma_phi / (2 pi 0.1 s) [Hz] (the phase
+                # error's change over the interval); out of it (FLL / pull-in) a third of the FLL's range
+                # 1/(4 T). Without it the unaided receiver's rates after reacquisition (1-7 m/s off, seen)
+                # went in with 0.05 m/s sigmas.
+                from .tracking import pll_thermal_sigma_deg
+                aided_ch = (te.tracking_flags & 16) > 0
+                bn = np.where(aided_ch, c.tracking.loop.bn_pll_hz, trk.cfg_unaided.bn_pll_hz)
+                tco = np.where(aided_ch, c.tracking.loop.t_coh_s, trk.cfg_unaided.t_coh_s)
+                s_phi = np.deg2rad(pll_thermal_sigma_deg(np.nan_to_num(cn0, nan=0.0), bn, tco))
+                from .receiver_tracking import DOPPLER_AVG_S
+                s_f = np.where(te.mode == 2, np.sqrt(2.0) * s_phi / (2 * np.pi * DOPPLER_AVG_S), 1.0 / (12.0 * tco))
+                obs.rate_sigma_mps = np.hypot(obs.rate_sigma_mps, s_f * lam)
+        else:
+            obs = None
+            te = None
+            locked = np.zeros(0, bool)
+        fix = None
+        need = 3 + len({e.system for e, l in zip(ephs, locked) if l})
+        if n and locked.sum() >= max(need, 4):
+            idx = np.flatnonzero(locked)
+            le = [ephs[i] for i in idx]
+            sol = solve_pvt(le, obs.t_tag_s, pr[idx], obs.pr_sigma_m[idx], obs.pseudorange_rate_mps[idx],
+                            obs.rate_sigma_mps[idx], iono_m=obs.iono_m[idx], tropo_m=obs.tropo_m[idx],
+                            r0_e_m=None if r_prev is None else r_prev + v_prev * (t - t_prev))
+            lat, lon, alt = earth.ecef_to_geodetic(sol.r_e_m)
+            Cne = earth.C_n_e(lat, lon)
+            P, Pv = sol.cov_pos_clk[:3, :3], sol.cov_vel_drift[:3, :3]
+            fix = GnssFix(sol.r_e_m, sol.v_e_mps, float(lat), float(lon), float(alt), Cne.T @ sol.v_e_mps,
+                          P, Cne.T @ P @ Cne, Pv, Cne.T @ Pv @ Cne, sol.clk_bias_m, sol.clk_drift_mps,
+                          sol.isb_m, sol.dop, int(idx.size), [sat_ids[i] for i in idx],
+                          float(np.sqrt(max(sol.cov_vel_drift[3, 3], 0.0))) if sol.cov_vel_drift is not None
+                          else float("nan"))
+            self.r_prev, self.v_prev, self.t_prev = sol.r_e_m, sol.v_e_mps, t
+            self.last_fix = (float(t), fix)
+        if trk is not None:
+            trk.note_fix(float(t), fix is not None)
+            # the receiver's clock-drift estimate for the aiding: the common mode of the aided channels'
+            # NCO corrections in phase lock (clock steering of a deeply aided receiver); without it the
+            # PVT's drift (noisy: +-0.5 m/s per epoch seen), held and growing in sigma while no fix
+            cm = trk.common_mode_hz() if trk.external else None
+            if cm is not None and self.drift_hat is not None:
+                lam1 = C_MPS / CARRIER_HZ["G"]
+                x, _ = self._drift_at(float(t))
+                self.drift_hat = (float(t), x - lam1 * cm, 0.02 ** 2)     # from the PLLs: a few cm/s
+                trk.shift_aided(cm)
+            elif fix is not None and np.isfinite(fix.clk_drift_sigma_mps):
+                # a clock filter on the PVT's drift (noisy: +-0.5 m/s per epoch seen): Kalman update
+                r = max(fix.clk_drift_sigma_mps, 1e-3) ** 2
+                if self.drift_hat is None:
+                    self.drift_hat = (float(t), fix.clk_drift_mps, r)
+                else:
+                    x, s_d = self._drift_at(float(t))
+                    g = s_d ** 2 / (s_d ** 2 + r)
+                    self.drift_hat = (float(t), x + g * (fix.clk_drift_mps - x), (1 - g) * s_d ** 2)
+        z = np.zeros(0)
+        return GnssEpoch(
+            float(t), t_g, t_g + clk_b[k] / C_MPS, sat_ids, [e.system for e in ephs],
+            np.array([e.prn for e in ephs], int),
+            pr if n else z, obs.pseudorange_rate_mps if n else z, obs.doppler_hz if n else z,
+            obs.carrier_hz if n else z, cn0 if n else z, obs.el_rad if n else z, obs.az_rad if n else z,
+            locked, obs.pr_sigma_m if n else z, obs.rate_sigma_mps if n else z,
+            obs.iono_m if n else z, obs.tropo_m if n else z, fd_veh if n else z, fd_veh_rate if n else z,
+            obs.geometric_rate_mps if n else z, ephs, eset, float(clk_b[k]), float(clk_d[k]),
+            r_a[k], v_a[k], fix, obs.iono_true_m if n else z, obs.tropo_true_m if n else z,
+            None if te is None else te.lock_time_s, None if te is None else te.tracking_flags,
+            None if te is None else te.cn0_true_dbhz)
 
 
-__all__ = ["GnssReceiverConfig", "GnssReceiverSim", "GnssEpoch", "GnssFix", "gpst_from_date",
+__all__ = ["GnssReceiverConfig", "GnssReceiverSim", "ReceiverRun", "GnssEpoch", "GnssFix", "gpst_from_date",
            "KLOBUCHAR_ALPHA_DEFAULT", "KLOBUCHAR_BETA_DEFAULT", "CARRIER_HZ"]

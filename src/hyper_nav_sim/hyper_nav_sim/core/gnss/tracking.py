@@ -174,26 +174,56 @@ class LoopConfig:
     acq_doppler_bin_hz: float = 500.0
     acq_code_bin_chips: float = 0.5
     nco_limit_hz: float = 0.0
+    pli_min_s: float = 0.2
+    code_settle_s: float = 1.0
+    dll_pull_bn_hz: float = 0.0
 
     @classmethod
     def aided_default(cls) -> "LoopConfig":
-        """Narrow loops behind INS aiding: PLL 3 Hz / 20 ms, FLL 1 Hz, DLL 0.1 Hz;
-        acquisition 20 ms coherent x 5 noncoherent, 10 Hz Doppler bins (the
-        residual +-5 Hz stays inside the 20 ms FLL pull-in range +-1/(4T) = 12.5 Hz:
-        25 Hz bins false-locked at the range edge in a test); the
-        loop's correction to the aided NCO bounded to +-10 Hz (about 3 sigma of a
-        0.6 m/s line-of-sight velocity error: the aiding is trusted to its
-        covariance, so noise cannot drag the loop off the predicted Doppler).
-        The bound must stay inside the FLL's +-1/(4T) = 12.5 Hz: at 15 Hz a
-        channel detected at 16 dB-Hz was held beyond the FLL's range, where its
-        discriminator aliases, and stayed in FLL for the rest of the run."""
-        return cls(t_coh_s=0.02, bn_pll_hz=3.0, bn_fll_hz=1.0, bn_dll_hz=0.1, acq_t_coh_ms=20, acq_k_noncoh=5,
-                   acq_doppler_bin_hz=10.0, pli_tau_s=0.5, nco_limit_hz=10.0)
+        """Narrow loops behind INS aiding: PLL 3 Hz / 20 ms, DLL 0.1 Hz.
+        Reacquisition choices (issue 23, measured on a C/N0 ramp of 1.25 dB/s
+        through the aided threshold, ``docs/gnss-receiver-tracking.md``):
+
+        * acquisition 20 ms coherent x 25 noncoherent (0.5 s dwell): the aided
+          window is a few cells, all tested in one dwell by the channel's
+          correlator array (the caller's ``n_parallel``), so the dwell can be
+          long enough to detect near 16 dB-Hz (5 dwells of 100 ms over 2 serial
+          cells took 1.6 s median);
+        * 2 Hz Doppler bins (a zero-padded FFT over the 20 ms block): the
+          handover frequency error is +-1 Hz, inside the 3 Hz PLL's pull-in,
+          instead of +-5 Hz that the FLL had to pull at 16-20 dB-Hz;
+        * FLL assist practically off (0.05 Hz): the aiding is the frequency
+          reference (at 1 Hz the FLL's thermal noise at 20 dB-Hz, about 2 Hz,
+          kept the PLL from pulling in; at 0.25 Hz 2.5 % of the channels had no
+          phase lock 4 s after the threshold, at 0.05 Hz 1 %);
+        * the loop's correction to the aided NCO bounded to +-3 Hz (about 3
+          sigma of a 0.2 m/s line-of-sight velocity error, anti-windup on the
+          rate integrator): a channel not in phase lock that runs to the bound
+          is re-centred on the prediction (at +-10 Hz, 10 % of the channels
+          detected near 16 dB-Hz ran away to the bound and stayed in FLL);
+        * lock detectors that start as growing-memory averages after a handover
+          (no startup transient of the exponential filter), phase lock declared
+          once the indicator has averaged 0.2 s (``pli_min_s``) with a 0.3 s
+          memory (``pli_tau_s``; 0.5 s added about 0.3 s);
+        * code: the handover leaves up to +-0.25 chip (75 m) of code error that
+          the 0.1 Hz DLL removes with a 2.5 s time constant; the DLL pulls in at
+          2 Hz for ``code_settle_s`` (1 s) after a handover and the pseudorange
+          is reported valid only after it (:mod:`.receiver_tracking`): a
+          filter fed the unsettled code took tens of metres of error."""
+        return cls(t_coh_s=0.02, bn_pll_hz=3.0, bn_fll_hz=0.05, bn_dll_hz=0.1, acq_t_coh_ms=20, acq_k_noncoh=25,
+                   acq_doppler_bin_hz=2.0, pli_tau_s=0.3, pli_min_s=0.2, nco_limit_hz=3.0, dll_pull_bn_hz=2.0)
 
     def validate(self):
         n = round(self.t_coh_s / DT_MS_S)
         if not (np.isfinite(self.t_coh_s) and n >= 1 and abs(n * DT_MS_S - self.t_coh_s) < 1e-9 and n <= 20):
             raise ValueError(f"t_coh_s: expected a whole number of ms in [1, 20] ms, got {self.t_coh_s!r}")
+        if not (np.isfinite(self.code_settle_s) and 0 <= self.code_settle_s <= 10):
+            raise ValueError(f"code_settle_s: expected in [0, 10] s, got {self.code_settle_s!r}")
+        if not (np.isfinite(self.dll_pull_bn_hz) and 0 <= self.dll_pull_bn_hz
+                and 4 * self.dll_pull_bn_hz * self.t_coh_s < 1):
+            raise ValueError(f"dll_pull_bn_hz: expected 0 (off) or 4 B_n t_coh_s < 1, got {self.dll_pull_bn_hz!r}")
+        if not (np.isfinite(self.pli_min_s) and 0 <= self.pli_min_s <= 10):
+            raise ValueError(f"pli_min_s: expected in [0, 10] s, got {self.pli_min_s!r}")
         for k in ("bn_pll_hz", "bn_fll_hz", "bn_dll_hz", "carrier_hz", "chip_rate_hz", "pli_tau_s", "cn0_tau_s",
                   "acq_doppler_bin_hz", "acq_code_bin_chips"):
             _pos(k, getattr(self, k))
@@ -240,17 +270,21 @@ class LoopConfig:
         p[P_ACQ_DBIN] = self.acq_doppler_bin_hz
         p[P_ACQ_CBIN] = self.acq_code_bin_chips
         p[P_NCO_LIM] = self.nco_limit_hz
+        p[P_PLI_MIN] = round(self.pli_min_s / 0.02)
+        p[P_SETTLE] = round(self.code_settle_s / 0.02)
+        p[P_BN_PULL] = self.dll_pull_bn_hz
         return p
 
 
 (P_NCOH, P_W0P, P_W0F, P_KDLL, P_BN_DLL, P_D, P_RATIO, P_PLI_A, P_PLI_ON, P_PLI_OFF, P_CN0_A, P_DROP, P_HOLD,
- P_ACQ_NCOH, P_ACQ_K, P_ACQ_THR, P_ACQ_PEN, P_ACQ_DBIN, P_ACQ_CBIN, P_NCO_LIM, NP) = range(21)
+ P_ACQ_NCOH, P_ACQ_K, P_ACQ_THR, P_ACQ_PEN, P_ACQ_DBIN, P_ACQ_CBIN, P_NCO_LIM, P_PLI_MIN, P_SETTLE, P_BN_PULL,
+ NP) = range(24)
 
 MODE_SEARCH, MODE_FLL, MODE_PLL = 0, 1, 2
 # channel state columns
 (S_MODE, S_PHI, S_FNCO, S_VEL, S_ACC, S_EPS, S_IC, S_QC, S_IP, S_QP, S_HAVEP, S_MSC,
  S_BI, S_BQ, S_BW, S_MSB, S_MU, S_NBD, S_NBP, S_LOCKT, S_LOWT, S_CN0E,
- S_CELL, S_TRUE, S_Q, S_DMS, S_DSTAT, S_DK, S_PEN, S_FOFF, S_COFF, S_SEARCHT, S_NACQ, NS) = range(34)
+ S_CELL, S_TRUE, S_Q, S_DMS, S_DSTAT, S_DK, S_PEN, S_FOFF, S_COFF, S_SEARCHT, S_NACQ, S_NBLK, S_NCOLIM, NS) = range(36)
 
 
 def new_state(n_ch: int, f0_hz, fdot0_hzps=0.0, q_cells=1.0, cn0_start_dbhz=45.0) -> np.ndarray:
@@ -269,6 +303,7 @@ def new_state(n_ch: int, f0_hz, fdot0_hzps=0.0, q_cells=1.0, cn0_start_dbhz=45.0
     s[:, S_NBP] = m * m * a2 + 2 * m
     s[:, S_MU] = (m * a2 + 2) / (a2 + 2)
     s[:, S_SEARCHT] = -1.0
+    s[:, S_NBLK] = 1e9          # detector averages in steady state
     return s
 
 
@@ -356,6 +391,7 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                                 # alarm is dropped after drop_hold_s without ever reading as a signal
                                 s[c, S_MU] = 1.0
                                 s[c, S_CN0E] = -30.0
+                                s[c, S_NBLK] = 0.0
                             else:
                                 if hit:
                                     s[c, S_PEN] = p[P_ACQ_PEN] * p[P_ACQ_NCOH] * p[P_ACQ_K]
@@ -387,10 +423,14 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
             if s[c, S_MSB] >= 20.0:
                 nbp = s[c, S_BI] ** 2 + s[c, S_BQ] ** 2
                 nbd = s[c, S_BI] ** 2 - s[c, S_BQ] ** 2
-                ap = p[P_PLI_A]
+                # growing-memory start after a handover: the cumulative mean of the blocks so far until
+                # it reaches the filter's memory (weight 1/n), then the exponential filter
+                s[c, S_NBLK] += 1.0
+                g = 1.0 / s[c, S_NBLK]
+                ap = max(p[P_PLI_A], g)
                 s[c, S_NBD] += ap * (nbd - s[c, S_NBD])
                 s[c, S_NBP] += ap * (nbp - s[c, S_NBP])
-                ac = p[P_CN0_A]
+                ac = max(p[P_CN0_A], g)
                 s[c, S_MU] += ac * (nbp / max(s[c, S_BW], 1e-12) - s[c, S_MU])
                 mu = s[c, S_MU]
                 x = (mu - 1.0) / max(20.0 - mu, 1e-9) / T
@@ -403,7 +443,7 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                 pli = s[c, S_NBD] / max(s[c, S_NBP] - 40.0, 0.25 * s[c, S_NBP])
                 if mode == 2 and pli < p[P_PLI_OFF]:
                     mode = 1
-                elif mode == 1 and pli > p[P_PLI_ON]:
+                elif mode == 1 and pli > p[P_PLI_ON] and s[c, S_NBLK] >= p[P_PLI_MIN]:
                     mode = 2
                     s[c, S_LOCKT] = 0.0
                 if s[c, S_CN0E] < p[P_DROP]:
@@ -442,14 +482,28 @@ def track_block(f_in_hz, cn0_dbhz, noise, unif, p, s, out_mode, out_phi, out_df,
                 s[c, S_ACC] += tc * (w0p ** 3 * ep + wf * wf * ef)
                 s[c, S_VEL] += tc * (s[c, S_ACC] + 1.1 * w0p * w0p * ep + 1.414 * wf * ef)
                 lim = p[P_NCO_LIM]
+                if lim > 0.0 and s[c, S_NCOLIM] > lim:      # per channel: the caller's k sigma of the aiding
+                    lim = s[c, S_NCOLIM]
                 if lim > 0.0:       # aided: correction to the predicted Doppler bounded (f_in is the residual)
-                    s[c, S_VEL] = min(max(s[c, S_VEL], -2.0 * math.pi * lim), 2.0 * math.pi * lim)
+                    wl = 2.0 * math.pi * lim
+                    if abs(s[c, S_VEL]) >= wl:
+                        if mode == 1:
+                            # not in phase lock and the loop has run to the bound: re-centre on the
+                            # aiding (the prediction is trusted to its covariance, the loop is not)
+                            s[c, S_VEL] = 0.0
+                        else:
+                            s[c, S_VEL] = min(max(s[c, S_VEL], -wl), wl)
+                        s[c, S_ACC] = 0.0           # anti-windup: no rate integrated against the bound
                 s[c, S_FNCO] = (s[c, S_VEL] + 2.4 * w0p * ep) / (2.0 * math.pi)
-                # carrier-aided DLL
+                # carrier-aided DLL (pull-in bandwidth for code_settle_s after a handover, if set)
+                bn_d, kd = p[P_BN_DLL], kdll
+                if p[P_BN_PULL] > bn_d and s[c, S_NBLK] < p[P_SETTLE]:
+                    bn_d = p[P_BN_PULL]
+                    kd = 4.0 * bn_d * tc
                 cn0_eff = max(cn0 * _sinc(df * T) ** 2, 1e-6)
-                sig2 = p[P_BN_DLL] * d / (2.0 * cn0_eff) * (1.0 + 2.0 / (tc * cn0_eff * (2.0 - d)))
-                sd = math.sqrt(sig2 * (2.0 - kdll) / kdll)
-                s[c, S_EPS] -= kdll * (_scurve(s[c, S_EPS], d) + sd * n3)
+                sig2 = bn_d * d / (2.0 * cn0_eff) * (1.0 + 2.0 / (tc * cn0_eff * (2.0 - d)))
+                sd = math.sqrt(sig2 * (2.0 - kd) / kd)
+                s[c, S_EPS] -= kd * (_scurve(s[c, S_EPS], d) + sd * n3)
                 s[c, S_IP], s[c, S_QP] = Ic, Qc
                 s[c, S_HAVEP] = 1.0
                 s[c, S_IC] = 0.0

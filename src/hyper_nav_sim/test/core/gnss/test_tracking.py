@@ -151,16 +151,11 @@ def test_aiding_error_has_the_covariance_it_was_given():
 def test_aided_nco_bound_inside_the_fll_range():
     with pytest.raises(ValueError, match="nco_limit_hz"):
         LoopConfig(t_coh_s=0.02, bn_pll_hz=3.0, bn_dll_hz=0.1, nco_limit_hz=15.0).validate()
-    # 40 channels searching while C/N0 ramps 12 -> 37 dB-Hz over 20 s: with the default bound (10 Hz)
-    # all end in phase lock; a bound beyond the FLL range (15 Hz, patched past validation) strands some
-    stuck = {}
-    for lim in (None, 15.0):
-        n_ch, n = 40, 20000
-        bank = ChannelBank(LoopConfig.aided_default(), n_ch, 0.0, q_cells=2)
-        if lim is not None:
-            bank.p[tr.P_NCO_LIM] = lim
-        rng = np.random.default_rng(0)
-        bank.start_search(rng)
-        out = bank.run(np.zeros((n, n_ch)), np.repeat(np.linspace(12.0, 37.0, n)[:, None], n_ch, 1), rng)
-        stuck[lim] = int((out.mode[-1] != tr.MODE_PLL).sum())
-    assert stuck[None] == 0 and stuck[15.0] >= 1, stuck
+    # 40 channels searching while C/N0 ramps 12 -> 37 dB-Hz over 20 s: with the default bound (3 Hz,
+    # re-centred on the aiding when a channel out of phase lock runs to it) all end in phase lock
+    n_ch, n = 40, 20000
+    bank = ChannelBank(LoopConfig.aided_default(), n_ch, 0.0, q_cells=2)
+    rng = np.random.default_rng(0)
+    bank.start_search(rng)
+    out = bank.run(np.zeros((n, n_ch)), np.repeat(np.linspace(12.0, 37.0, n)[:, None], n_ch, 1), rng)
+    assert int((out.mode[-1] != tr.MODE_PLL).sum()) == 0
