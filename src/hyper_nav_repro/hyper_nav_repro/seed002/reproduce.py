@@ -50,7 +50,8 @@ SCENARIOS = {**EVAL_SCENARIOS, 4: "seed002_weave", 5: "seed002_reversal"}
 AUG_FILTERS = ("AUG-EKF", "AUG-IMM")          # core.tracking.augmented: maneuver parameters as states
 ALL_FILTERS = tuple(FILTERS) + AUG_FILTERS
 DATA_SIM = "simulated world (US76, rotating WGS-84, simulator's flight; filters on eq. 21)"
-DATA_PM = "perfect model (the augmented eq. 21 flown with the true c_l and bank; radar noise only)"
+DATA_PM = ("perfect model (the augmented eq. 21 flown with the truth's model-equivalent parameters; "
+           "radar noise only)")
 # seed 002 Table 2: RMSE h, theta, phi, v, gamma, psi and ms/step
 PAPER = {
     1: {"EKF": [576.8, 6.160e-3, 5.649e-3, 385.90, 6.713e-3, 5.544e-2, 1.24],
@@ -145,8 +146,8 @@ def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, tim
                                  "ms_per_step": ms, "ms_per_step_kind": "batch (numpy, all runs at once)",
                                  **nees_summary(e, np.swapaxes(Pa, 0, 1), t), "data": DATA_SIM}
     # the bounds along the truth: known maneuver, and maneuver parameters unknown (augmented)
-    flight = sc.trajectory().flight(np.concatenate([[0.0], t]))
-    par = au.params_from_flight(flight["c_l"], flight["sigma"])
+    # the truth's parameters in the filter's model (eq. 21 reproduces the simulated accelerations)
+    par = au.equivalent_params(cfg.model, np.concatenate([[0.0], t]), np.vstack([initial_truth(sc)[None], x_true]))
     F_aug = au.truth_jacobians(cfg.model, x_true, par[1:], float(t[1] - t[0]))
     high = au.maneuver_steps(par[1:], float(t[1] - t[0]), setup.maneuver_rate_per_s)
     P_known = au.known_bound(F_aug, cfg.P0, cfg.R)
@@ -156,7 +157,8 @@ def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, tim
     result["pcrb_unknown_rms"] = au.rms_sigma(P_unknown).tolist()
     result["pcrb_unknown_params_rms"] = au.rms_sigma(P_unknown, au.N_AUG)[au.N_KIN:].tolist()
     result["maneuver_mode_fraction"] = float(np.mean(high))
-    result["bound_data"] = ("eq. 21 (augmented) along the simulated world's truth; no kinematic process noise; "
+    result["bound_data"] = ("eq. 21 (augmented) along the simulated world's truth, parameters: the truth's "
+                            "model-equivalent ones (augmented.equivalent_params); no kinematic process noise; "
                             "parameters: random walks of the scenario's tracker_augmented block, the maneuver "
                             "mode's on the steps where the true lift moves faster than maneuver_rate_per_s")
     # the same filters on perfect-model data (the bound's model exact)

@@ -15,7 +15,7 @@ X0 = np.array([55000.0, 0.0, 0.0, 6800.0, np.deg2rad(-0.2), np.deg2rad(80.0)])
 
 def _truth(n=400, a_l=0.0):
     """A glide flown by the augmented model itself (c_l 0.3; lateral lift a_l from 150 s)."""
-    par = np.tile([0.3, 0.0, 1.0], (n, 1))
+    par = np.tile([0.3, 0.0, 1.09], (n, 1))
     par[150:, 1] = a_l
     return au.perfect_model_truth(CFG.model, X0, par, 1.0), par
 
