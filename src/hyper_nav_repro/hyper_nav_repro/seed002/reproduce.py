@@ -155,6 +155,15 @@ def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, tim
                                    noise_high=setup.maneuver, high_steps=high)
     result["pcrb_known_rms"] = au.rms_sigma(P_known).tolist()
     result["pcrb_unknown_rms"] = au.rms_sigma(P_unknown).tolist()
+    # how the unknown-maneuver bound moves with the maneuver mode's densities (x factor), and with no maneuver mode
+    sens = {}
+    for factor in (0.1, 0.3, 1.0, 3.0):
+        m = au.ManeuverNoise(*np.concatenate([factor * setup.maneuver.q, setup.maneuver.init_sigma]))
+        sens[f"maneuver_q_x{factor:g}"] = au.rms_sigma(au.augmented_bound(
+            F_aug, cfg.P0, cfg.R, setup.glide, float(t[1] - t[0]), noise_high=m, high_steps=high)).tolist()
+    sens["glide_mode_only"] = au.rms_sigma(au.augmented_bound(F_aug, cfg.P0, cfg.R, setup.glide,
+                                                              float(t[1] - t[0]))).tolist()
+    result["pcrb_unknown_sensitivity"] = sens
     result["pcrb_unknown_params_rms"] = au.rms_sigma(P_unknown, au.N_AUG)[au.N_KIN:].tolist()
     result["maneuver_mode_fraction"] = float(np.mean(high))
     result["bound_data"] = ("eq. 21 (augmented) along the simulated world's truth, parameters: the truth's "
