@@ -270,7 +270,7 @@ class AugFilterConfig:
     parameters' random-walk densities (``modes``: glide, maneuver)."""
     modes: tuple = (ManeuverNoise(),)
     q_kin_phys: tuple = (1.0, 1.0e-7, 1.0e-7, 0.3, 1.0e-5, 1.0e-5)     # white kinematic noise per sqrt(s)
-    p_stay: float = 0.98
+    p_stay: float = 0.98                # per mode (a float: the same for every mode)
     params0: tuple = (0.3, 0.0, 1.09)   # initial guess: the nominal glide (c_l = 0.3, sigma = 0)
 
 
@@ -311,8 +311,9 @@ def aug_filter_run(model: gm.GlideModel, cfg: AugFilterConfig, x0_phys, P0_kin_s
     ym = np.repeat(y[:, None], M, 1)
     Pm = np.repeat(P[:, None], M, 1)
     mu = np.full((B, M), 1.0 / M)
-    Tm = np.full((M, M), (1.0 - cfg.p_stay) / max(M - 1, 1))
-    np.fill_diagonal(Tm, cfg.p_stay if M > 1 else 1.0)
+    p_stay = np.broadcast_to(np.asarray(cfg.p_stay, float), (M,))
+    Tm = np.repeat(((1.0 - p_stay) / max(M - 1, 1))[:, None], M, 1)
+    np.fill_diagonal(Tm, p_stay if M > 1 else 1.0)
     qd = np.stack([np.diag(process_noise(m, 1.0, cfg.q_kin_phys)) for m in cfg.modes])     # (M, 9) per second
     R = np.asarray(R_scaled, float)
     half = np.pi / AUG_SCALE[1]
@@ -345,7 +346,7 @@ class AugmentedSetup:
     modes, the filters built on them and the bound's mode threshold."""
     glide: ManeuverNoise
     maneuver: ManeuverNoise
-    p_stay: float
+    p_stay: tuple                       # probability of staying in the glide / the maneuver mode per step
     q_kin_phys: tuple
     maneuver_rate_per_s: float
 
@@ -356,7 +357,8 @@ class AugmentedSetup:
                                                           "init_sigma_a_l", "init_sigma_c_d")))
         maneuver = ManeuverNoise(float(d.pop("high_q_a_v")), float(d.pop("high_q_a_l")), float(d.pop("high_q_c_d")),
                                  *(float(v) for v in glide.init_sigma))
-        out = cls(glide, maneuver, float(d.pop("p_stay")), tuple(float(v) for v in d.pop("q_kin")),
+        p_stay = (float(d.pop("p_stay")), float(d.pop("p_stay_maneuver")))
+        out = cls(glide, maneuver, p_stay, tuple(float(v) for v in d.pop("q_kin")),
                   float(d.pop("maneuver_rate_per_s")))
         if d:
             raise ValueError(f"tracker_augmented: unknown fields {sorted(d)}")
@@ -365,4 +367,4 @@ class AugmentedSetup:
     def filter_config(self, name: str) -> AugFilterConfig:
         """``AUG-EKF``: one mode (glide); ``AUG-IMM``: glide + maneuver modes."""
         modes = (self.glide,) if name == "AUG-EKF" else (self.glide, self.maneuver)
-        return AugFilterConfig(modes=modes, q_kin_phys=self.q_kin_phys, p_stay=self.p_stay)
+        return AugFilterConfig(modes=modes, q_kin_phys=self.q_kin_phys, p_stay=self.p_stay[:len(modes)])
