@@ -30,6 +30,9 @@ import time
 import jax
 import numpy as np
 
+from scipy.stats import chi2
+
+from hyper_nav_filter.core.tracking import augmented as au
 from hyper_nav_filter.core.tracking import glide_model as gm
 from hyper_nav_filter.core.tracking import params_store, pcrb
 from hyper_nav_filter.core.tracking.config import FILTER_TYPES as FILTERS
@@ -42,7 +45,13 @@ from hyper_nav_sim.core.tracking_setup import initial_truth, radar_measurements,
 from .training_set import EVAL_SCENARIOS
 
 STATES = ("h_m", "theta_rad", "phi_rad", "v_mps", "gamma_rad", "psi_rad")
-SCENARIOS = EVAL_SCENARIOS
+# the paper's three scenarios and two maneuvers outside the training set (issue 24)
+SCENARIOS = {**EVAL_SCENARIOS, 4: "seed002_weave", 5: "seed002_reversal"}
+AUG_FILTERS = ("AUG-EKF", "AUG-IMM")          # core.tracking.augmented: maneuver parameters as states
+ALL_FILTERS = tuple(FILTERS) + AUG_FILTERS
+DATA_SIM = "simulated world (US76, rotating WGS-84, simulator's flight; filters on eq. 21)"
+DATA_PM = ("perfect model (the augmented eq. 21 flown with the truth's model-equivalent parameters; "
+           "radar noise only)")
 # seed 002 Table 2: RMSE h, theta, phi, v, gamma, psi and ms/step
 PAPER = {
     1: {"EKF": [576.8, 6.160e-3, 5.649e-3, 385.90, 6.713e-3, 5.544e-2, 1.24],
@@ -117,16 +126,92 @@ def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, tim
         result["filters"][ft] = {"rmse_runs": rmse.tolist(), "rmse_mean": rmse.mean(0).tolist(),
                                  "rmse_std": rmse.std(0, ddof=1 if runs > 1 else 0).tolist(),
                                  "diverged_runs": int(np.sum(~np.isfinite(rmse).all(1))),
-                                 "ms_per_step": ms, "ms_per_step_kind": "online" if timing_steps else "scan"}
+                                 "ms_per_step": ms, "ms_per_step_kind": "online" if timing_steps else "scan",
+                                 **nees_summary(e, np.swapaxes(np.asarray(out["P"], float), 0, 1), t),
+                                 "data": DATA_SIM}
+    # maneuver parameters as states (issue 24): the augmented EKF and IMM, numpy float64
+    setup = au.AugmentedSetup.from_dict(sc.data["tracker_augmented"])
+    x0_phys = gm.to_physical(x0b)
+    dt_all = np.diff(t, prepend=0.0)
+    for ft in AUG_FILTERS:
+        t1 = time.perf_counter()
+        xa, Pa, _ = au.aug_filter_run(cfg.model, setup.filter_config(ft), x0_phys, cfg.P0, cfg.R, Zs, dt_all)
+        ms = 1e3 * (time.perf_counter() - t1) / (n * runs)
+        e = state_errors(np.swapaxes(xa, 0, 1), x_true[None])
+        errors[ft] = e[0]
+        rmse = np.sqrt(np.mean(e**2, axis=1))
+        result["filters"][ft] = {"rmse_runs": rmse.tolist(), "rmse_mean": rmse.mean(0).tolist(),
+                                 "rmse_std": rmse.std(0, ddof=1 if runs > 1 else 0).tolist(),
+                                 "diverged_runs": int(np.sum(~np.isfinite(rmse).all(1))),
+                                 "ms_per_step": ms, "ms_per_step_kind": "batch (numpy, all runs at once)",
+                                 **nees_summary(e, np.swapaxes(Pa, 0, 1), t), "data": DATA_SIM}
+    # the bounds along the truth: known maneuver, and maneuver parameters unknown (augmented)
+    # the truth's parameters in the filter's model (eq. 21 reproduces the simulated accelerations)
+    par = au.equivalent_params(cfg.model, np.concatenate([[0.0], t]), np.vstack([initial_truth(sc)[None], x_true]))
+    F_aug = au.truth_jacobians(cfg.model, x_true, par[1:], float(t[1] - t[0]))
+    high = au.maneuver_steps(par[1:], float(t[1] - t[0]), setup.maneuver_rate_per_s)
+    P_known = au.known_bound(F_aug, cfg.P0, cfg.R)
+    P_unknown = au.augmented_bound(F_aug, cfg.P0, cfg.R, setup.glide, float(t[1] - t[0]),
+                                   noise_high=setup.maneuver, high_steps=high)
+    result["pcrb_known_rms"] = au.rms_sigma(P_known).tolist()
+    result["pcrb_unknown_rms"] = au.rms_sigma(P_unknown).tolist()
+    # how the unknown-maneuver bound moves with the maneuver mode's densities (x factor), and with no maneuver mode
+    sens = {}
+    for factor in (0.1, 0.3, 1.0, 3.0):
+        m = au.ManeuverNoise(*np.concatenate([factor * setup.maneuver.q, setup.maneuver.init_sigma]))
+        sens[f"maneuver_q_x{factor:g}"] = au.rms_sigma(au.augmented_bound(
+            F_aug, cfg.P0, cfg.R, setup.glide, float(t[1] - t[0]), noise_high=m, high_steps=high)).tolist()
+    sens["glide_mode_only"] = au.rms_sigma(au.augmented_bound(F_aug, cfg.P0, cfg.R, setup.glide,
+                                                              float(t[1] - t[0]))).tolist()
+    result["pcrb_unknown_sensitivity"] = sens
+    result["pcrb_unknown_params_rms"] = au.rms_sigma(P_unknown, au.N_AUG)[au.N_KIN:].tolist()
+    result["maneuver_mode_fraction"] = float(np.mean(high))
+    result["bound_data"] = ("eq. 21 (augmented) along the simulated world's truth, parameters: the truth's "
+                            "model-equivalent ones (augmented.equivalent_params); no kinematic process noise; "
+                            "parameters: random walks of the scenario's tracker_augmented block, the maneuver "
+                            "mode's on the steps where the true lift moves faster than maneuver_rate_per_s")
+    # the same filters on perfect-model data (the bound's model exact)
+    x_pm = au.perfect_model_truth(cfg.model, initial_truth(sc), par, float(t[1] - t[0]))[1:]
+    Z_pm = np.empty((runs, n, 3))
+    for i in range(runs):
+        rng = np.random.default_rng([sc["seed"], 2003, i])
+        Z_pm[i] = x_pm[:, :3] + np.sqrt(np.diag(cfg.R)) * gm.STATE_SCALE[:3] * rng.standard_normal((n, 3))
+    Zs_pm = np.swapaxes(gm.measurement_to_scaled(Z_pm), 0, 1)
+    result["perfect_model"] = {"data": DATA_PM}
+    for ft in AUG_FILTERS:
+        xa, Pa, _ = au.aug_filter_run(cfg.model, setup.filter_config(ft), x0_phys, cfg.P0, cfg.R, Zs_pm, dt_all)
+        e = state_errors(np.swapaxes(xa, 0, 1), x_pm[None])
+        rmse = np.sqrt(np.mean(e**2, axis=1))
+        result["perfect_model"][ft] = {"rmse_mean": rmse.mean(0).tolist(),
+                                       "rmse_over_pcrb_unknown": (rmse.mean(0) / au.rms_sigma(P_unknown)).tolist(),
+                                       **nees_summary(e, np.swapaxes(Pa, 0, 1), t)}
     # posterior Cramer-Rao bound, true maneuver known
     F = pcrb.jacobians(cfg.model, x_true, u_true, np.sign(_bank_sign(sc, t)), float(t[1] - t[0]))
     Pb = pcrb.bound(F, cfg.P0, cfg.R)
     result["pcrb_rms"] = pcrb.rms_bound(Pb).tolist()
-    for ft in FILTERS:
+    for ft in ALL_FILTERS:
         r = np.asarray(result["filters"][ft]["rmse_mean"])
         result["filters"][ft]["rmse_over_pcrb"] = (r / np.asarray(result["pcrb_rms"])).tolist()
-    result["paper"] = PAPER[num]
+        result["filters"][ft]["rmse_over_pcrb_unknown"] = (r / np.asarray(result["pcrb_unknown_rms"])).tolist()
+    result["paper"] = PAPER.get(num, {})
     return result, t, errors, np.sqrt(np.diagonal(Pb, axis1=1, axis2=2)) * gm.STATE_SCALE[:6]
+
+
+def nees_summary(e_phys, P_scaled, t, skip_s: float = 30.0) -> dict:
+    """NEES of the six kinematic states, e (runs, T, 6) physical, P (runs, T,
+    >=6, >=6) scaled: the Monte Carlo average per epoch (runs * NEES ~
+    chi2(6 runs) when consistent), its mean over the epochs after ``skip_s``,
+    the two-sided 95 % band and the fraction of those epochs inside it."""
+    runs = e_phys.shape[0]
+    es = e_phys / gm.STATE_SCALE[:6]
+    P6 = np.asarray(P_scaled, float)[..., :6, :6]
+    nees = np.einsum("rti,rti->rt", es, np.linalg.solve(P6, es[..., None])[..., 0]).mean(0)
+    keep = np.asarray(t) > skip_s
+    lo, hi = chi2.ppf([0.025, 0.975], 6 * runs) / runs
+    v = nees[keep]
+    return {"nees_mean": float(np.mean(v)), "nees_band": [float(lo), float(hi)],
+            "nees_in_band_fraction": float(np.mean((v > lo) & (v < hi))),
+            "nees_in_band": bool(lo < np.mean(v) < hi)}
 
 
 def _scenario_run(job):
@@ -169,22 +254,36 @@ def _bank_sign(sc, t):
 
 
 def format_table(results: dict) -> str:
-    head = (f"{'scenario/filter':<16}" + "".join(f"{s:>20}" for s in ("h [m]", "theta [rad]", "phi [rad]", "v [m/s]",
-                                                                       "gamma [rad]", "psi [rad]")) + f"{'ms/step':>16}")
+    """RMSE per state beside the known- and unknown-maneuver bounds, the
+    ratio to the unknown-maneuver bound, NEES; every row names its data."""
+    head = (f"{'scenario/filter':<18}" + "".join(f"{s:>20}" for s in ("h [m]", "theta [rad]", "phi [rad]", "v [m/s]",
+                                                                       "gamma [rad]", "psi [rad]"))
+            + f"{'NEES (band)':>22}{'ms/step':>9}  data")
     lines = [head, "-" * len(head)]
     fmt = ["{:.1f}", "{:.3e}", "{:.3e}", "{:.2f}", "{:.3e}", "{:.3e}"]
     for num, res in results.items():
-        for ft in FILTERS:
+        for ft in ALL_FILTERS:
             r = res["filters"][ft]
             cells = [f"{fmt[i].format(r['rmse_mean'][i])}±{fmt[i].format(r['rmse_std'][i])}" for i in range(6)]
-            lines.append(f"{f'S{num} {ft} ours':<16}" + "".join(f"{c:>20}" for c in cells) + f"{r['ms_per_step']:>16.2f}")
+            lo, hi = r["nees_band"]
+            lines.append(f"{f'S{num} {ft} ours':<18}" + "".join(f"{c:>20}" for c in cells)
+                         + f"{r['nees_mean']:>9.2f} [{lo:.2f},{hi:.2f}]{r['ms_per_step']:>9.2f}  simulated world")
             if ft in res["paper"]:
                 p = res["paper"][ft]
-                lines.append(f"{f'S{num} {ft} paper':<16}" + "".join(f"{fmt[i].format(p[i]):>20}" for i in range(6))
-                             + f"{p[6]:>16.2f}")
-        lines.append(f"{f'S{num} PCRB':<16}" + "".join(f"{fmt[i].format(res['pcrb_rms'][i]):>20}" for i in range(6)))
-        lines.append(f"{f'S{num} RMSE/PCRB':<16}" + "  ".join(
-            f"{ft} " + "/".join(f"{v:.1f}" for v in res["filters"][ft]["rmse_over_pcrb"]) for ft in FILTERS))
+                lines.append(f"{f'S{num} {ft} paper':<18}" + "".join(f"{fmt[i].format(p[i]):>20}" for i in range(6))
+                             + f"{'':>22}{p[6]:>9.2f}  paper's Table 2")
+        for key, label in (("pcrb_known_rms", "PCRB known"), ("pcrb_unknown_rms", "PCRB unknown")):
+            lines.append(f"{f'S{num} {label}':<18}" + "".join(f"{fmt[i].format(res[key][i]):>20}" for i in range(6))
+                         + f"{'':>31}  eq. 21 along the simulated truth")
+        for ft in ALL_FILTERS:
+            lines.append(f"{f'S{num} {ft}/PCRBu':<18}" + "".join(
+                f"{v:>20.2f}" for v in res["filters"][ft]["rmse_over_pcrb_unknown"]) + f"{'':>31}  simulated world")
+        for ft in AUG_FILTERS:
+            r = res["perfect_model"][ft]
+            lines.append(f"{f'S{num} {ft} PM':<18}" + "".join(f"{fmt[i].format(r['rmse_mean'][i]):>20}" for i in range(6))
+                         + f"{r['nees_mean']:>9.2f} [{r['nees_band'][0]:.2f},{r['nees_band'][1]:.2f}]{'':>9}  perfect model")
+            lines.append(f"{f'S{num} {ft} PM/PCRBu':<18}" + "".join(
+                f"{v:>20.2f}" for v in r["rmse_over_pcrb_unknown"]) + f"{'':>31}  perfect model")
         lines.append("")
     return "\n".join(lines)
 
@@ -205,7 +304,8 @@ def plot(path, num, t, errors, sigma_bound):
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
     axes[0, 0].legend(ncol=5, fontsize=8)
-    fig.suptitle(f"seed 002 scenario {num}: estimation errors (run 0; cf. paper Fig. {5 + num})")
+    fig.suptitle(f"seed 002 scenario {num} ({SCENARIOS[num]}): estimation errors, run 0, simulated world"
+                 + (f" (cf. paper Fig. {5 + num})" if num <= 3 else ""))
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -214,7 +314,7 @@ def plot(path, num, t, errors, sigma_bound):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="Reproduce seed 002 Table 2 / Figs. 6-8 (Monte Carlo over radar noise).")
     ap.add_argument("--runs", type=int, default=20)
-    ap.add_argument("--scenarios", default="1,2,3")
+    ap.add_argument("--scenarios", default="1,2,3,4,5", help="1-3: the paper's; 4: 3 g weave, 5: lift reversal")
     ap.add_argument("--short", action="store_true", help="3 runs, scenario 1, first 200 s (a few seconds)")
     ap.add_argument("--lekf", default=None, help="L-EKF parameter set (default: the scenario's tracker.lekf_parameters)")
     ap.add_argument("--out", default="results/seed002")
@@ -242,7 +342,7 @@ def main(argv=None) -> int:
     print(f"seed 002 Table 2: RMSE over each flight, mean ± std over {runs} radar-noise runs "
           f"(L-EKF '{name}', data seed {meta['data']['data_seed']}); {time.monotonic() - t0:.0f} s")
     print(format_table(results))
-    summary = {"runs": runs, "short": args.short, "lekf_parameters": name, "lekf_data_seed": meta["data"]["data_seed"],
+    summary = {"data": DATA_SIM, "runs": runs, "short": args.short, "lekf_parameters": name, "lekf_data_seed": meta["data"]["data_seed"],
                "states": list(STATES), "scenarios": {str(k): v for k, v in results.items()},
                "jax": jax.__version__, "devices": [str(d) for d in jax.devices()]}
     (out / "table2.json").write_text(json.dumps(summary, indent=1))

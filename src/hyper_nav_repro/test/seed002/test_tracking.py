@@ -52,6 +52,92 @@ def test_ekf_is_consistent_on_a_non_maneuvering_glide():
     assert np.mean((nees > lo) & (nees < hi)) > 0.6                # measured 0.75 of the epochs
 
 
+def _glide_track():
+    flight = {**td.vehicle(), "duration_s": 700.0, "end_speed_mps": 2000.0, "c_l_program": 0.3, "maneuvers": [],
+              "start": {"lat_deg": 5.0, "lon_deg": 30.0, "alt_m": 47000.0, "speed_mps": 6900.0, "gamma_deg": -0.1,
+                        "psi_deg": 60.0}}
+    return td.fly(flight)
+
+
+def _augmented_glide_nees(name, seed):
+    """MC-averaged NEES (epochs 100-700 s) and RMS h, v of the augmented
+    filter ``name`` (the scenario's tracker_augmented block) over 10 runs of
+    radar noise and hand-over error on the 700 s glide above (simulated world)."""
+    from hyper_nav_filter.core.tracking import augmented as au
+    from hyper_nav_sim.core.scenario import load_scenario
+    from hyper_nav_sim.core.tracking_setup import tracker_config
+    sc = load_scenario("seed002_s1")
+    cfg = tracker_config(sc)
+    setup = au.AugmentedSetup.from_dict(sc.data["tracker_augmented"])
+    tr = _glide_track()
+    runs, n = 10, len(tr.t_s)
+    rng = np.random.default_rng(seed)
+    Z = tr.x[None, :, :3] + RADAR_SIGMA * rng.standard_normal((runs, n, 3))
+    x0 = tr.x[0, :6][None] + rng.standard_normal((runs, 6)) * np.sqrt(np.diag(cfg.P0))[:6] * gm.STATE_SCALE[:6]
+    DT = np.ones(n)
+    DT[0] = 0.0
+    xa, P, _ = au.aug_filter_run(cfg.model, setup.filter_config(name), x0, cfg.P0, cfg.R,
+                                 np.swapaxes(gm.measurement_to_scaled(Z), 0, 1), DT)
+    e = (xa[..., :6] - tr.x[:, None, :6]) / gm.STATE_SCALE[:6]
+    nees = np.einsum("tbi,tbi->tb", e, np.linalg.solve(P[..., :6, :6], e[..., None])[..., 0]).mean(axis=1)[100:]
+    rms = np.sqrt(np.mean((e * gm.STATE_SCALE[:6]) ** 2, axis=(0, 1)))
+    return nees, rms, chi2.ppf([0.025, 0.975], 6 * runs) / runs
+
+
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_augmented_ekf_is_consistent_on_a_non_maneuvering_glide(seed):
+    """The EKF on the augmented state (maneuver parameters a_v, a_l, c_d as
+    random walks; the AUG-IMM's glide mode alone): 10 * NEES ~ chi2(60), the
+    mean over epochs in the 95 % band [4.05, 8.33] (measured, seeds 11/12/13:
+    4.85 / 4.11 / 5.39, 92 / 53 / 93 % of epochs in band), and it tracks better
+    than the EKF with the scenario's Q (h 336-358 m, v 41-58 m/s; EKF 633-642 m,
+    109-124 m/s)."""
+    nees, rms, (lo, hi) = _augmented_glide_nees("AUG-EKF", seed)
+    assert lo < nees.mean() < hi, (lo, nees.mean(), hi)
+    assert rms[0] < 500.0 and rms[3] < 80.0, rms
+
+
+@pytest.mark.xfail(strict=False, reason="issue 24: the two-mode AUG-IMM is conservative on a glide (measured NEES "
+                                        "3.76 / 3.81 / 4.44, v 253-275 m/s): its mode probabilities stay near "
+                                        "50/50 (one-step innovations at 64 km of radar noise hardly tell the modes "
+                                        "apart) and the maneuver mode's estimates widen the mixture")
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_augmented_imm_is_consistent_on_a_non_maneuvering_glide(seed):
+    nees, rms, (lo, hi) = _augmented_glide_nees("AUG-IMM", seed)
+    assert lo < nees.mean() < hi, (lo, nees.mean(), hi)
+    assert rms[3] < 120.0, rms
+
+
+def test_scenario_q_makes_the_ekf_conservative_on_a_glide():
+    """The EKF's NEES 3.85 below [4.05, 8.33] reported in issue 24 is its
+    process noise: with the scenario's Q (grid-searched for weighted MAE on
+    maneuvering training tracks; shared with the L-EKF, trained with it) the
+    NEES on the glide above is below the band (measured 2.85 on seed 11), with
+    the glide Q of the EKF test above in it (5.85). The scenario's Q is kept
+    (the L-EKF's parameters were trained with it; docs/tracking.md)."""
+    from dataclasses import replace
+    from hyper_nav_sim.core.scenario import load_scenario
+    from hyper_nav_sim.core.tracking_setup import tracker_config
+    cfg = replace(tracker_config(load_scenario("seed002_s1")), filter_type="EKF")
+    tr = _glide_track()
+    runs, n = 10, len(tr.t_s)
+    rng = np.random.default_rng(11)
+    Z = tr.x[None, :, :3] + RADAR_SIGMA * rng.standard_normal((runs, n, 3))
+    x0 = gm.to_scaled(tr.x[0])[None] + rng.standard_normal((runs, 7)) * np.sqrt(np.diag(cfg.P0))
+    x0[:, 6] = 0.0
+    DT = np.ones((n, runs))
+    DT[0] = 0.0
+    lo, hi = chi2.ppf([0.025, 0.975], 6 * runs) / runs
+    out_nees = []
+    for c in (cfg, replace(cfg, q_v_mps=3.0, q_gamma_rad=1e-3, q_psi_rad=5e-4, q_chi=0.01, init_sigma_chi=0.01)):
+        _, out = filters.run_batch(filters.build_filter(c), x0, np.repeat(c.P0[None], runs, 0),
+                                   np.swapaxes(gm.measurement_to_scaled(Z), 0, 1), DT)
+        e = np.asarray(out["x"], float)[..., :6] - gm.to_scaled(tr.x)[:, None, :6]
+        P = np.asarray(out["P"], float)[..., :6, :6]
+        out_nees.append(np.einsum("tbi,tbij,tbj->tb", e, np.linalg.inv(P), e).mean(axis=1)[100:].mean())
+    assert out_nees[0] < lo < out_nees[1] < hi, (lo, out_nees, hi)
+
+
 @pytest.mark.slow
 def test_training_through_the_filter_lowers_the_loss():
     """End-to-end training (RMSprop, weighted MAE, TBPTT through the L-EKF
@@ -110,7 +196,17 @@ def test_reproduction_short_mode_runs(tmp_path):
     # the bound is an expectation: 3 runs of 200 s are too few to compare with it
     # (the full reproduction's ratios are 1.5-16, docs/tracking.md); here it must be finite
     assert np.all(np.isfinite(res["pcrb_rms"])) and np.all(np.asarray(res["pcrb_rms"]) > 0)
-    # 200 s of scenario 1 (no maneuver yet): every filter tracks within 3 km / 100 m/s
-    for ft in repro_seed002.FILTERS:
+    # the bounds: with the maneuver unknown the bound can only rise; the known-maneuver bound of
+    # the augmented model (the truth's model-equivalent parameters) is pcrb's (flown c_l and bank)
+    # within 5 % (measured 1.8 % here, up to 4.7 % over the full flights)
+    known, unknown = np.asarray(res["pcrb_known_rms"]), np.asarray(res["pcrb_unknown_rms"])
+    assert np.all(unknown >= known * (1 - 1e-9)) and np.all(np.isfinite(unknown))
+    np.testing.assert_allclose(known, res["pcrb_rms"], rtol=5e-2)
+    assert res["filters"]["AUG-IMM"]["data"].startswith("simulated world")
+    assert res["perfect_model"]["data"].startswith("perfect model")
+    # 200 s of scenario 1 (no maneuver yet): every filter tracks within 3 km / 100 m/s, but the
+    # AUG-IMM within 150 m/s (measured 120 m/s: its maneuver mode keeps ~half the probability
+    # on a glide, docs/tracking.md; the others 73-95 m/s)
+    for ft in repro_seed002.ALL_FILTERS:
         r = res["filters"][ft]["rmse_mean"]
-        assert r[0] < 3000.0 and r[3] < 100.0, (ft, r)
+        assert r[0] < 3000.0 and r[3] < (150.0 if ft == "AUG-IMM" else 100.0), (ft, r)

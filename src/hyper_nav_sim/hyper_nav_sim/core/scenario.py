@@ -114,7 +114,7 @@ SCHEMA = {
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
 # (and the aiding nodes' blocks: core.aiding_nodes, read from the installed descriptors)
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "world")
+OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "tracker_augmented", "world")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
             "graph.qos_depth",
