@@ -186,16 +186,17 @@ class FusionNode(Node):
             f"{s.id} ({s.spec.type}) <- {', '.join(i.topic for i in s.inputs())}" for s in self.router.sources))
 
     def _on_message(self, src, role, msg, topic):
-        if src.drives_time:
+        imu = src.drives_time and role == "main"      # (the IMU source's other input: the structure load)
+        if imu:
             self._last_imu_wall = time.monotonic()
         t_ns = stamp_ns(msg)
-        report, after_release = self.late.arrival(topic, t_ns, src.drives_time, self.engine.last_released_t_s)
+        report, after_release = self.late.arrival(topic, t_ns, imu, self.engine.last_released_t_s)
         reason, sols = self.router.handle(src, role, msg)
         if reason is None and not src.drives_time:
             self._last_msg_t[src.id] = self.engine.t_latest_s
         elif reason is not None:
             self.get_logger().warning(f"{src.id}: rejected {role} message: {reason}", throttle_duration_sec=5.0)
-        if src.drives_time and reason is None:
+        if imu and reason is None:
             self.late.imu_accepted(t_ns)
             self._set_allowance()
         if report is not None:
