@@ -434,7 +434,9 @@ def identifier_run(job) -> dict:
     fl = SimulatedFlight.from_scenario(sc)
     s, P = fl.fused_state_at(cfg, t0)
     w = fl.window(s, P, T)
-    ml = identifiers.max_likelihood(LeverArmFrequencyEnv(w, cfg, guess, lc.reestimation.env), setup.ident_ml_budget)
+    # global stage: three sweeps of 41-point scans per frequency over the whole box, then three starts
+    ml = identifiers.max_likelihood(LeverArmFrequencyEnv(w, cfg, guess, lc.reestimation.env), setup.ident_ml_budget,
+                                    grid_points=41, sweeps=3, n_starts=3)
     rc = dataclasses.replace(lc.reestimation, seed=int(seed), timeout_s=3600.0)
     dd = reestimate(w, cfg, guess, rc)
     z = (ml.freqs_radps - truth) / ml.sigma_radps
