@@ -186,11 +186,15 @@ class FusionNode(Node):
             f"{s.id} ({s.spec.type}) <- {', '.join(i.topic for i in s.inputs())}" for s in self.router.sources))
 
     def _on_message(self, src, role, msg, topic):
-        imu = src.drives_time and role == "main"      # (the IMU source's other input: the structure load)
+        imu = src.drives_time and role == "main"
         if imu:
             self._last_imu_wall = time.monotonic()
         t_ns = stamp_ns(msg)
-        report, after_release = self.late.arrival(topic, t_ns, imu, self.engine.last_released_t_s)
+        report, after_release = None, False
+        if imu or not src.drives_time:
+            # (the IMU source's other input, the structure load, pairs with its IMU samples whatever
+            # the arrival order: not a late input)
+            report, after_release = self.late.arrival(topic, t_ns, imu, self.engine.last_released_t_s)
         reason, sols = self.router.handle(src, role, msg)
         if reason is None and not src.drives_time:
             self._last_msg_t[src.id] = self.engine.t_latest_s
