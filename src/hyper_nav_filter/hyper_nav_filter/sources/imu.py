@@ -65,6 +65,10 @@ class ImuSource(SourceType):
             reason = reason or self._queued(engine.add_imu_rates(t, w, f, load))
         return reason
 
+    @property
+    def n_held_imu(self) -> int:
+        return self.pairing.n_held
+
     def diagnostics(self) -> dict:
         out = super().diagnostics()
         if self.p.get("load_topic"):
