@@ -6,8 +6,9 @@ the same beam shapes, discretisation and lever-arm acceleration.
 
 Model (eqs. 3, 9-13): three bending modes, q_i'' = K2 q + K1 q' + u_q,
 K2 = -diag(w_i^2), K1 = -diag(2 zeta_i w_i), u_q = phi_i F_n / M_i with the
-normal load F_n = m_vehicle (e_d . f_b) taken from the measured specific
-force (see ``LeverArmCompensator``); IMU station r = r0 + Y q, Y = e_d [W_1(x_A) W_2(x_A) W_3(x_A)].
+normal load F_n = m_vehicle (e_d . f_b) from the structure's load sensor
+(its sub-interval samples, each held over its part of the IMU interval; the
+measured specific force without one, see ``LeverArmCompensator``); IMU station r = r0 + Y q, Y = e_d [W_1(x_A) W_2(x_A) W_3(x_A)].
 Accelerometer error (eq. 1/13):
     nabla_lever = r'' + 2 w x r' + w' x r + w x (w x r).
 
