@@ -11,7 +11,11 @@ for:
 * filter (fed)     the filter's ``LeverArmCompensator`` fed the measured
                    increments (CG + world lever arm, no sensor noise), as in flight,
 * filter (cg load) the same model fed the lever-arm-free (CG) specific force
-                   for its load (the world's own load), i.e. discretisation only.
+                   for its load (the world's own load), i.e. discretisation only:
+                   its 50 Hz interval mean held over the interval,
+* filter (8 sub)   the same with the load's means over 8 sub-intervals (the
+                   400 Hz load sensor's samples, no sensor noise), each held
+                   over its sub-interval (what the filter does now).
 
     python benchmarks/lever_arm_model_fit.py [--duration 3]
 """
@@ -52,13 +56,16 @@ def compare(sc, integrator: str = "rk4") -> dict:
     model = modal_model(cfg)
     comp = LeverArmCompensator(model)
     out = {"world": (resp.q, resp.qdot, dv_world)}
-    for label, load_dv in (("filter (fed)", dv_meas), ("filter (cg load)", dv_cg)):
+    n_sub = 8
+    t_sub = (t[:, None] - dt + dt / n_sub * np.arange(1, n_sub + 1)).ravel()
+    f_sub = (traj.imu_increments(t_sub, dt / n_sub)[1] / (dt / n_sub)).reshape(len(t), n_sub, 3)
+    for label, load_f in (("filter (fed)", dv_meas / dt), ("filter (cg load)", dv_cg / dt), ("filter (8 sub)", f_sub)):
         lev = np.concatenate([resp.q0, resp.qdot0])
         w_prev = None
         q, qd, dvl = np.empty((len(t), 3)), np.empty((len(t), 3)), np.empty((len(t), 3))
         for k in range(len(t)):
             m = comp.model
-            lev1, q_int = m.step(lev, m.modal_input(load_dv[k] / dt), dt)
+            lev1, q_int = m.step(lev, m.modal_input(load_f[k]), dt)
             _, _, w_mid, w_dot = comp.compensate(lev, dth[k], dv_meas[k], dt, w_prev)
             from hyper_nav_filter.core.elastic_lever_arm import lever_arm_dvel
             dvl[k] = lever_arm_dvel(m.Y, m.r0_b_m, lev[:3], lev[3:], lev1[:3], lev1[3:], q_int,

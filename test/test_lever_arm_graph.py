@@ -2,7 +2,9 @@
 (hyper_nav_aiding) watches nav/state against gnss/fix, fires, re-estimates
 the natural frequencies in its worker process and publishes a ModelUpdate on
 nav/model_update; the fusion node takes it through its declared
-``model_update`` source and applies it at its epoch. Over real DDS: the
+``model_update`` source and applies it at its epoch, and drives its modal
+model with the structure's load from ``imu/load`` (its ``imu`` source's
+``load_topic``). Over real DDS: the
 update reaches the fusion node, the live solution equals the offline core
 over the bag (late GNSS copies around the update on a second declared source
 included), the lever-arm node stays responsive and the fusion node keeps
@@ -111,7 +113,7 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
             updates = list(c.messages["nav/model_update"])
     run = load_run(bag)
     delivery = delivery_check(run)
-    for topic in ("imu/data_raw", "gnss/fix", "gnss/vel"):      # the inputs of the live = offline check
+    for topic in ("imu/data_raw", "imu/load", "gnss/fix", "gnss/vel"):      # the inputs of the live = offline check
         assert delivery[topic]["published"] == delivery[topic]["recorded"] > 0, (topic, delivery[topic])
 
     # the node fired once, re-estimated off its callback thread and published one update
@@ -128,6 +130,9 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
     # the fusion node took it through its declared source
     fusion = run["diagnostics"]["hyper_nav_filter: fusion"]
     assert int(fusion["processed nav/model_update"]) == 1
+    # and the structure's load (imu/load, 8 samples per IMU interval) with every IMU sample
+    assert int(fusion["received imu/load"]) == 8 * int(fusion["received imu/data_raw"]) > 0
+    assert "processed imu/data_raw (without load)" not in fusion
     print("fusion, late copies:", {k: v for k, v in fusion.items() if "test/late_fix" in k or "late" in k},
           "sent", sent)
     # every late copy reached the node; one that came after its epoch's release (a loaded machine)
@@ -140,8 +145,8 @@ def test_learned_model_reaches_fusion_and_live_equals_offline(tmp_path):
     # and each input the node received behind the IMU (nav/late_inputs) where it received it
     sc = g.scenario
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
-               if r.topic in ("/imu/data_raw", "/gnss/fix", "/gnss/vel", "/test/late_fix", "/nav/model_update",
-                              "/nav/late_inputs")]
+               if r.topic in ("/imu/data_raw", "/imu/load", "/gnss/fix", "/gnss/vel", "/test/late_fix",
+                              "/nav/model_update", "/nav/late_inputs")]
     sols, eng = run_offline(records, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources(), final=True)
     # every input the node reported late was found in the bag and placed where the node took it (how many
     # of the late copies were behind the IMU at the node depends on scheduling: not asserted)

@@ -82,5 +82,7 @@ def _lever_arm_parameters(sc) -> dict:
 LEVER_ARM = AidingNode(
     name="lever_arm", package=PACKAGE, executable="lever_arm_node", block="lever_arm_learning",
     validate=_lever_arm_config, parameters=_lever_arm_parameters,
-    inputs=lambda block: {"imu/data_raw", "gnss/fix", "gnss/vel"}, outputs=lambda block: ["nav/model_update"],
+    inputs=lambda block: {"imu/data_raw", "gnss/fix", "gnss/vel"} | ({block["load_topic"]} if block.get("load_topic")
+                                                                     else set()),
+    outputs=lambda block: ["nav/model_update"],
     enabled_by_default=True, ros_name="lever_arm_learning", gates_clock=True)

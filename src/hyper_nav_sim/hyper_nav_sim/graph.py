@@ -92,8 +92,14 @@ class _NoAliasDumper(yaml.SafeDumper):
 
 CRITICAL_STREAMS = ("imu/data_raw", "nav/state")
 # topics a replay feeds into the graph (the rest of a recorded run is its own output)
-REPLAY_TOPICS = ("imu/data_raw", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris", "imu/mag",
+REPLAY_TOPICS = ("imu/data_raw", "imu/load", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris", "imu/mag",
                  "baro/pressure", "radar/track", "truth/state")
+
+
+def _has_structure_load(sc: Scenario) -> bool:
+    """Whether the scenario's IMU node publishes ``imu/load`` (the elastic lever arm on)."""
+    la = sc.data.get("lever_arm")
+    return isinstance(la, dict) and bool(la.get("enabled", True))
 
 
 def executables() -> dict[str, tuple[str, str]]:
@@ -290,7 +296,10 @@ class Graph:
         diag = float(self.scenario["graph.diagnostics_period_s"])
         if name in SENSOR_TOPICS:
             # each topic waits for its own consumers (an aiding node may take one topic of a sensor)
-            counts = {t: self._subscribers([t]) for t in SENSOR_TOPICS[name]}
+            topics = list(SENSOR_TOPICS[name])
+            if name == "imu" and _has_structure_load(self.scenario):
+                topics.append("imu/load")        # the IMU node's structure-load stream (seed 000)
+            counts = {t: self._subscribers([t]) for t in topics}
             p = {"scenario": sc_path, "min_subscribers": max(counts.values())}
             if len(set(counts.values())) > 1:
                 p.update({"wait_topics": list(counts), "wait_counts": list(counts.values())})

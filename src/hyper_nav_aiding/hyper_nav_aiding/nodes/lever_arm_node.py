@@ -35,6 +35,7 @@ from .. import lever_arm_conversions as lac
 from ..core.lever_arm.config import PARAMS, LeverArmLearningConfig
 from ..core.lever_arm.monitor import ReestimationMonitor
 from ..core.lever_arm.worker import ReestimationWorker
+from hyper_nav_filter.core.imu_load import ImuLoadPairing
 
 
 class LeverArmLearningNode(Node):
@@ -68,6 +69,8 @@ class LeverArmLearningNode(Node):
                                       "rejected_nav_state_layout", "jobs_started", "jobs_accepted", "jobs_rejected",
                                       "jobs_failed", "jobs_timed_out", "model_updates_published")}
         self._imu_t = None
+        # the structure's load (``load_topic``): IMU samples wait for their interval's load samples
+        self._pairing = ImuLoadPairing() if self.p.load_topic else None
         self._last_trigger_t = float("nan")
         self._job = None                 # {"t_trigger", "window_t0", "window_t1"}
         self._last = "none yet"
@@ -85,7 +88,10 @@ class LeverArmLearningNode(Node):
                       self.create_subscription(NavSatFix, "gnss/fix", self._timed(self._on_fix), qos),
                       self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._timed(self._on_vel), qos),
                       self.create_subscription(NavStateMsg, "nav/state", self._timed(self._on_state), qos)]
-        self.get_logger().info("worker ready; subscribed to imu/data_raw, gnss/fix, gnss/vel, nav/state")
+        if self._pairing is not None:
+            self._subs.append(self.create_subscription(Imu, self.p.load_topic, self._timed(self._on_load), qos))
+        self.get_logger().info("worker ready; subscribed to imu/data_raw, gnss/fix, gnss/vel, nav/state"
+                               + (f", {self.p.load_topic}" if self._pairing is not None else ""))
 
     # ---- callbacks -------------------------------------------------------------------
     def _timed(self, fn):
@@ -110,10 +116,27 @@ class LeverArmLearningNode(Node):
             self.counts["rejected_imu_out_of_order"] += 1
             return
         self.counts["imu"] += 1
+        if self._pairing is None:
+            self._take_imu(t, w, f, None)
+            return
+        self._pairing.add_imu(t, w, f)
+        self._release_paired()
+
+    def _on_load(self, msg):
+        t, _, f = conversions.imu_rates(msg)
+        if np.isfinite(t) and np.all(np.isfinite(f)):
+            self._pairing.add_load(t, f)
+            self._release_paired()
+
+    def _release_paired(self):
+        for t, w, f, load in self._pairing.ready(lambda: -np.inf if self._imu_t is None else self._imu_t):
+            self._take_imu(t, w, f, load)
+
+    def _take_imu(self, t, w, f, load):
         window = None
         if self._imu_t is not None:
             dt = t - self._imu_t
-            window = self.monitor.add_imu(t, w * dt, f * dt, busy=self.worker.busy)
+            window = self.monitor.add_imu(t, w * dt, f * dt, busy=self.worker.busy, load_f_b_mps2=load)
         self._imu_t = t
         self._submit(window)
 

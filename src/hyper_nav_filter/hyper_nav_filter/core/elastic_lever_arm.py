@@ -6,8 +6,9 @@ the same beam shapes, discretisation and lever-arm acceleration.
 
 Model (eqs. 3, 9-13): three bending modes, q_i'' = K2 q + K1 q' + u_q,
 K2 = -diag(w_i^2), K1 = -diag(2 zeta_i w_i), u_q = phi_i F_n / M_i with the
-normal load F_n = m_vehicle (e_d . f_b) taken from the measured specific
-force (see ``LeverArmCompensator``); IMU station r = r0 + Y q, Y = e_d [W_1(x_A) W_2(x_A) W_3(x_A)].
+normal load F_n = m_vehicle (e_d . f_b) from the structure's load sensor
+(its sub-interval samples, each held over its part of the IMU interval; the
+measured specific force without one, see ``LeverArmCompensator``); IMU station r = r0 + Y q, Y = e_d [W_1(x_A) W_2(x_A) W_3(x_A)].
 Accelerometer error (eq. 1/13):
     nabla_lever = r'' + 2 w x r' + w' x r + w x (w x r).
 
@@ -136,20 +137,31 @@ class ModalModel:
         return -np.diag(self.natural_freq_radps**2)
 
     def modal_input(self, f_b_mps2) -> np.ndarray:
-        """u_q (eq. 9-11) for a lever-arm-free specific force f_b."""
-        return self.load_gain_kg_per_kg * float(np.dot(self.deflection_axis_b, f_b_mps2))
+        """u_q (eq. 9-11) for a lever-arm-free specific force f_b (3,), or
+        for each row of sub-interval forces (n, 3) -> (n, 3)."""
+        f = np.asarray(f_b_mps2, float)
+        if f.ndim == 1:
+            return self.load_gain_kg_per_kg * float(np.dot(self.deflection_axis_b, f))
+        return (f @ self.deflection_axis_b)[:, None] * self.load_gain_kg_per_kg
 
     def equilibrium(self, f_b_mps2) -> np.ndarray:
-        """[q, q'] at the static deflection under a constant load."""
-        return np.concatenate([self.modal_input(f_b_mps2) / self.natural_freq_radps**2, np.zeros(3)])
+        """[q, q'] at the static deflection under a constant load (sub-interval
+        loads (n, 3): the first)."""
+        f = np.asarray(f_b_mps2, float).reshape(-1, 3)[0]
+        return np.concatenate([self.modal_input(f) / self.natural_freq_radps**2, np.zeros(3)])
 
     def step(self, lev, u_q, dt_s: float):
         """Exact ZOH step of the nominal modal state lev = [q, q'] under a
-        held input u_q: returns (lev at the end, int q dt over the step)."""
-        Phi, Gam = zoh_matrices(self.natural_freq_radps, self.damping_ratio, dt_s)     # (3, 3, 3), (3, 3)
-        x0 = np.stack([np.zeros(3), lev[:3], lev[3:]], axis=-1)                        # (3 modes, [s, q, q'])
-        x1 = np.einsum("mij,mj->mi", Phi, x0) + Gam * u_q[:, None]
-        return np.concatenate([x1[:, 1], x1[:, 2]]), x1[:, 0]
+        held input u_q (3,), or under n sub-interval inputs u_q (n, 3), each
+        held over its equal part dt / n of the interval (the load sensor's
+        own samples, ``ImuSample.load_f_b_mps2``): returns (lev at the end,
+        int q dt over the whole step)."""
+        u = np.asarray(u_q, float).reshape(-1, 3)
+        Phi, Gam = zoh_matrices(self.natural_freq_radps, self.damping_ratio, dt_s / len(u))   # (3, 3, 3), (3, 3)
+        x = np.stack([np.zeros(3), lev[:3], lev[3:]], axis=-1)                               # (3 modes, [s, q, q'])
+        for uj in u:
+            x = np.einsum("mij,mj->mi", Phi, x) + Gam * uj[:, None]
+        return np.concatenate([x[:, 1], x[:, 2]]), x[:, 0]
 
     def jacobians(self, omega_ib_b_radps, omegadot_ib_b_radps2):
         """A_q, A_qd of eq. 20: d nabla_lever / dq and / dq' (3 x 3 each)."""
@@ -188,8 +200,9 @@ class LeverArmCompensator:
         """lev: nominal [q, q'] at the interval start; dtheta/dvel: the
         bias-corrected increments; w_prev_radps: mean rate of the previous
         interval (None at the first); load_f_b_mps2: the lever-arm-free
-        specific force loading the structure (body FLU, m/s^2; None: the
-        measured dvel / dt). Returns (dvel at the CG, lev at the end, mean
+        specific force loading the structure (body FLU, m/s^2), the mean
+        over the interval (3,) or over its n equal sub-intervals (n, 3);
+        None: the measured dvel / dt. Returns (dvel at the CG, lev at the end, mean
         rate of this interval, angular acceleration)."""
         m = self.model
         w_mid = dtheta_b_rad / dt_s

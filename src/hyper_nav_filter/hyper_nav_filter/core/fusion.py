@@ -167,7 +167,8 @@ class FusionEngine:
     # ---- inputs -------------------------------------------------------------------
     def add_imu(self, t_s: float, dtheta_b_rad, dvel_b_mps, load_f_b_mps2=None) -> tuple[bool, str]:
         """Add an IMU sample stamped at the end of its interval; ``load_f_b_mps2``
-        the structure's load over it when a source gives it (``ImuSample``).
+        the structure's load over it when a source gives it (``ImuSample``: the
+        interval mean (3,) or the means over its n equal sub-intervals (n, 3)).
         Returns (accepted, reason); rejected samples are counted, never raised."""
         dth = _vec(dtheta_b_rad)
         dv = _vec(dvel_b_mps)
@@ -177,17 +178,18 @@ class FusionEngine:
         self._accept_imu(t_s, dth, dv, load=None if load_f_b_mps2 is None else _vec(load_f_b_mps2))
         return True, "ok"
 
-    def add_imu_rates(self, t_s: float, omega_b_radps, f_b_mps2) -> tuple[bool, str]:
+    def add_imu_rates(self, t_s: float, omega_b_radps, f_b_mps2, load_f_b_mps2=None) -> tuple[bool, str]:
         """Add an IMU sample given as mean rates over its interval (the
         sensor_msgs/Imu mapping): increments = rate * (t_s - t_latest), or
-        rate * the nominal interval after a gap."""
+        rate * the nominal interval after a gap; ``load_f_b_mps2`` as in
+        ``add_imu``."""
         w = _vec(omega_b_radps)
         f = _vec(f_b_mps2)
         ok, reason = self._check_imu_time(t_s, w, f)
         if not ok:
             return ok, reason
         dt = t_s - self.t_latest_s
-        self._accept_imu(t_s, w * dt, f * dt, rates=(w, f))
+        self._accept_imu(t_s, w * dt, f * dt, rates=(w, f), load=None if load_f_b_mps2 is None else _vec(load_f_b_mps2))
         return True, "ok"
 
     def _check_imu_time(self, t_s, a, b) -> tuple[bool, str]:

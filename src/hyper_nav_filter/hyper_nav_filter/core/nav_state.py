@@ -19,9 +19,10 @@ class ImuSample(NamedTuple):
     dt_s: float
     dtheta_b_rad: np.ndarray
     dvel_b_mps: np.ndarray
-    # the specific force that loads the structure over the interval (mean, body FLU, m/s^2): the
-    # lever-arm-free force of the external loads (seed 000 eqs. 4-6, the known input u_q of eq. 22),
-    # when a source gives it; None: the lever-arm block takes the measured one (see blocks.lever_arm)
+    # the specific force that loads the structure over the interval (body FLU, m/s^2): the mean (3,),
+    # or the load sensor's means over the n equal sub-intervals (n, 3); the lever-arm-free force of the
+    # external loads (seed 000 eqs. 4-6, the known input u_q of eq. 22), when a source gives it;
+    # None: the lever-arm block takes the measured one (see blocks.lever_arm)
     load_f_b_mps2: np.ndarray | None = None
 
 

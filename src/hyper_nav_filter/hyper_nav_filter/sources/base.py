@@ -107,6 +107,11 @@ class SourceType:
         """ConfigError when the filter configuration cannot take this source
         (e.g. pseudoranges need the clock block)."""
 
+    @property
+    def n_held_imu(self) -> int:
+        """IMU samples this source holds back from the engine (waiting for a paired input)."""
+        return 0
+
     def on_imu(self, engine) -> None:
         """Called after every IMU sample (sources holding data until the filter time passes it)."""
 

@@ -19,7 +19,38 @@ def write_plots(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
         out.append(_navigation(result["navigation"], out_dir / "navigation_errors.png"))
     if result.get("surface"):
         out.append(_surface(result["surface"], out_dir / "reward_surface.png"))
+    if result.get("identifier"):
+        out.append(_identifier(result["identifier"], out_dir / "identifier_error_over_sigma.png"))
     return out
+
+
+def _identifier(ident, path):
+    """Part 6: maximum likelihood's error / its reported sigma per window
+    (converged: filled; not: open), per frequency and true set, with the +-3
+    band; DDPG's error in the same sigma units beside it (clipped)."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    sets = list(ident["by_set"])
+    for ax, who in zip(axes, ("max_likelihood", "ddpg")):
+        for j, name in enumerate(sets):
+            rs = [r for r in ident["runs"] if r["set"] == name]
+            for i in range(3):
+                key = "error_over_sigma" if who == "max_likelihood" else "error_over_ml_sigma"
+                z = np.clip([r[who][key][i] for r in rs], -50.0, 50.0)
+                x = i + 0.25 * (j - 1) + np.linspace(-0.05, 0.05, len(z))
+                conv = [r["max_likelihood"]["converged"] for r in rs]
+                ax.scatter(x, z, s=12, color=f"C{j}", facecolors=[f"C{j}" if c else "none" for c in conv],
+                           label=name if i == 0 else None)
+        ax.axhspan(-3.0, 3.0, color="0.9", zorder=0)
+        ax.set_xticks([0, 1, 2], ["w1", "w2", "w3"])
+        ax.set_ylabel("error / ML reported sigma" + (" (clipped at +-50)" if who == "ddpg" else ""))
+        ax.set_title(("maximum likelihood" if who == "max_likelihood" else "DDPG (Table 3), same windows")
+                     + f"\n{ident['data']}", fontsize=7)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def _rewards(result, path):

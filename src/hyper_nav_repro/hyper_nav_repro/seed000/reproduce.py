@@ -19,6 +19,12 @@ the navigation errors of Figs. 10-11, with what the data can tell first.
 5. Navigation errors over the flight: KF-FLAC (rigid lever arm r0, no modes),
    the elastic model with Table 2 frequencies, and RL-DLAC (learned frequencies
    from the update epoch on, through the fusion engine's model updates).
+6. The identifier on the simulator's own data (issue 24): excited flight
+   (first two doublets, 4.5 s) with carrier-phase-grade fixes, the paper's Table 4 and two
+   other true frequency sets x ``--ident-seeds`` seeds, the filter's model at
+   +8 / -10 / +12 %: maximum likelihood (its Fisher sigma; converged only
+   off the box edge) and DDPG on the same windows; the fraction with all
+   three frequencies within 3 reported sigma and the RMS of error / sigma.
 
 Prints the tables, writes ``seed000_rl_dlac.json`` and PNGs (reward per
 episode, frequency estimates, navigation errors, reward surface) to ``--out``.
@@ -54,7 +60,13 @@ CARRIER_PHASE = (0.02, 0.005)          # m, m/s per axis: carrier-phase-grade fi
 # the data each comparison case rests on, printed in the same row as its figures (issue 24)
 DATA = {"paper": "simulator world (RK4 modes, noisy IMU), paper's flight, the scenario's fixes",
         "excited": "perfect-model data (fixes on the filter's own prediction), doublets, carrier-phase-grade fixes",
-        "excited_world": "simulator world (RK4 modes, noisy IMU), doublets, carrier-phase-grade fixes"}
+        "excited_world": "simulator world (RK4 modes, noisy IMU), doublets, carrier-phase-grade fixes",
+        "identifier": "simulator world (RK4 modes on the continuous load, noisy IMU, 400 Hz load sensor with its "
+                      "own noise), excited (first two doublets), carrier-phase-grade fixes"}
+# true frequency sets of the identifier study (part 6): the paper's Table 4, issue 24's unseen set, one more
+IDENT_SETS = {"paper Table 4": tuple(TABLE4_FREQ_RADPS), "issue 24": (19.2, 58.7, 107.5),
+              "other": (22.0, 52.0, 104.0)}
+IDENT_GUESS = (1.08, 0.90, 1.12)        # the filter's model: the issue's initial guesses (+8 / -10 / +12 %)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,6 +83,9 @@ class Setup:
     surface_data: tuple = ("noisy", "mean")
     nav_duration_s: float | None = None
     all_bound_cases: bool = True
+    ident_window: tuple = (160.8, 4.5)  # part 6: (start s, length s) of the window over the first two doublets
+    ident_sets: tuple = tuple(IDENT_SETS)
+    ident_ml_budget: int = 900          # maximum likelihood's own pass budget (sweeps + 3 starts)
 
 
 SHORT = Setup(overrides=(("duration_s", 5.0), ("lever_arm.freq_drift_time_s", 0.0),
@@ -78,7 +93,8 @@ SHORT = Setup(overrides=(("duration_s", 5.0), ("lever_arm.freq_drift_time_s", 0.
                          ("lever_arm_learning.trigger.threshold_m", 1.0),
                          ("lever_arm_learning.trigger.release_m", 0.5)),
               monitor_from_s=2.5, bound_window_end_s=2.5, long_window_s=2.0, window_s=1.0, episodes=2,
-              surface_fracs=(0.95, 1.0, 1.05), surface_data=("noisy",), nav_duration_s=5.0, all_bound_cases=False)
+              surface_fracs=(0.95, 1.0, 1.05), surface_data=("noisy",), nav_duration_s=5.0, all_bound_cases=False,
+              ident_window=(2.0, 1.0), ident_sets=("paper Table 4",), ident_ml_budget=60)
 
 
 def _scenario(name: str, seed: int, setup: Setup):
@@ -395,6 +411,99 @@ def excited_runs(setup: Setup, seeds, log, opts=None, out_dir=None) -> list:
     return runs
 
 
+# ---- 6. the identifier on the simulator's own data -----------------------------------------------
+def identifier_run(job) -> dict:
+    """One window of the identifier study: (setup, true set name, seed) ->
+    maximum likelihood (global sweeps + Levenberg-Marquardt, its Fisher sigma)
+    and DDPG (Table 3 settings, the scenario's budget) on the same window of
+    the excited flight's own data (the simulator's world), carrier-phase-grade
+    fixes, true frequencies constant at the set, the filter's model at
+    ``IDENT_GUESS`` x truth (both estimators start there; box +-25 %)."""
+    setup, name, seed = job
+    truth = np.asarray(IDENT_SETS[name], float)
+    sc = _scenario(setup.excited, seed, setup)
+    t0, T = setup.ident_window
+    sc.data["duration_s"] = min(float(sc.data["duration_s"]), t0 + T + 0.5)
+    la = sc.data["lever_arm"]
+    la["natural_freq_initial_radps"] = la["natural_freq_final_radps"] = truth.tolist()
+    sc.data["gnss"]["pos_sigma_enu_m"] = [CARRIER_PHASE[0]] * 3
+    sc.data["gnss"]["vel_sigma_enu_mps"] = [CARRIER_PHASE[1]] * 3
+    guess = truth * np.asarray(IDENT_GUESS)
+    cfg = sc.filter_config().with_updates({"lever_arm_natural_freq_radps": tuple(float(x) for x in guess)})
+    lc = _learning(sc)
+    fl = SimulatedFlight.from_scenario(sc)
+    s, P = fl.fused_state_at(cfg, t0)
+    w = fl.window(s, P, T)
+    # global stage: three sweeps of 41-point scans per frequency over the whole box, then three starts
+    ml = identifiers.max_likelihood(LeverArmFrequencyEnv(w, cfg, guess, lc.reestimation.env), setup.ident_ml_budget,
+                                    grid_points=41, sweeps=3, n_starts=3)
+    rc = dataclasses.replace(lc.reestimation, seed=int(seed), timeout_s=3600.0)
+    dd = reestimate(w, cfg, guess, rc)
+    z = (ml.freqs_radps - truth) / ml.sigma_radps
+    converged = str(ml.note).startswith("converged")      # an unconverged sigma is not a bound: never counted within
+    return {"set": name, "seed": int(seed), "true_radps": truth.tolist(), "guess_radps": guess.tolist(),
+            "max_likelihood": {"freqs_radps": ml.freqs_radps.tolist(), "error_pct": _err_pct(ml.freqs_radps, truth),
+                               "sigma_radps": ml.sigma_radps.tolist(), "error_over_sigma": z.tolist(),
+                               "within_3_sigma": bool(converged and np.all(np.abs(z) < 3.0)), "note": ml.note,
+                               "converged": converged, "n_passes": ml.n_passes,
+                               "wall_s": ml.wall_s, "cpu_s": ml.cpu_s},
+            "ddpg": {"freqs_radps": dd.freqs_radps.tolist(), "error_pct": _err_pct(dd.freqs_radps, truth),
+                     "error_over_ml_sigma": ((dd.freqs_radps - truth) / ml.sigma_radps).tolist(),
+                     "n_passes": dd.n_passes, "wall_s": dd.wall_s, "cpu_s": dd.cpu_s}}
+
+
+def identifier_study(setup: Setup, seeds, log, opts=None, out_dir=None) -> dict:
+    """``identifier_run`` over the true sets x seeds (campaign runs), with
+    the fraction of windows where all three frequencies are within 3 of the
+    reported sigma, and the RMS of error / sigma (1 for an honest sigma)."""
+    from hyper_nav_sim import campaign
+    jobs = [(setup, name, s) for name in setup.ident_sets for s in seeds]
+    runs = campaign.run("repro_seed000", identifier_run, jobs,
+                        keys=[f"identifier_{name.replace(' ', '_')}_seed{s:03d}" for _, name, s in jobs],
+                        opts=opts or campaign.Options(), out_dir=out_dir,
+                        warm_up=("hyper_nav_repro.seed000.reproduce",)).results
+    by_set = {}
+    for name in setup.ident_sets:
+        rs = [r for r in runs if r["set"] == name]
+        ml = [r["max_likelihood"] for r in rs]
+        dd = [r["ddpg"] for r in rs]
+        z = np.array([m["error_over_sigma"] for m in ml])
+        by_set[name] = {
+            "true_radps": rs[0]["true_radps"], "n": len(rs), "data": DATA["identifier"],
+            "ml_all_three_within_3_sigma": int(sum(m["within_3_sigma"] for m in ml)),
+            "ml_within_3_sigma_per_freq": np.sum((np.abs(z) < 3.0) & np.array([[m["converged"]] for m in ml]),
+                                                 axis=0).tolist(),
+            "ml_converged": int(sum(m["converged"] for m in ml)),
+            "ml_error_over_sigma_rms": np.sqrt(np.mean(z**2, axis=0)).tolist(),
+            "ml_mean_abs_error_pct": np.mean(np.abs([m["error_pct"] for m in ml]), axis=0).tolist(),
+            "ml_mean_sigma_pct": np.mean([100.0 * np.array(m["sigma_radps"]) / rs[0]["true_radps"] for m in ml],
+                                         axis=0).tolist(),
+            "ml_wall_s_mean": float(np.mean([m["wall_s"] for m in ml])),
+            "ml_wall_s_max": float(np.max([m["wall_s"] for m in ml])),
+            "ml_passes_mean": float(np.mean([m["n_passes"] for m in ml])),
+            "ddpg_mean_abs_error_pct": np.mean(np.abs([d["error_pct"] for d in dd]), axis=0).tolist(),
+            "ddpg_all_three_within_3_ml_sigma": int(sum(bool(np.all(np.abs(d["error_over_ml_sigma"]) < 3.0))
+                                                        for d in dd)),
+            "ddpg_wall_s_mean": float(np.mean([d["wall_s"] for d in dd])),
+            "ddpg_passes_mean": float(np.mean([d["n_passes"] for d in dd]))}
+        b = by_set[name]
+        log(f"  {name:14s} true {_fmt_w(b['true_radps'])}, {b['n']} seeds; data: {b['data']}")
+        log(f"    max likelihood: all three within 3 reported sigma {b['ml_all_three_within_3_sigma']}/{b['n']} "
+            f"(per frequency {b['ml_within_3_sigma_per_freq']}), converged {b['ml_converged']}/{b['n']}, "
+            f"|error| {_fmt_pct(b['ml_mean_abs_error_pct'])}, sigma {_fmt_pct(b['ml_mean_sigma_pct'])}, "
+            f"RMS error/sigma {np.round(b['ml_error_over_sigma_rms'], 2).tolist()}, "
+            f"wall {b['ml_wall_s_mean']:.1f} s (max {b['ml_wall_s_max']:.1f}), {b['ml_passes_mean']:.0f} passes")
+        log(f"    DDPG:           |error| {_fmt_pct(b['ddpg_mean_abs_error_pct'])}, all three within 3 ML sigma "
+            f"{b['ddpg_all_three_within_3_ml_sigma']}/{b['n']}, wall {b['ddpg_wall_s_mean']:.1f} s, "
+            f"{b['ddpg_passes_mean']:.0f} passes")
+    n = len(runs)
+    n_ok = sum(r["max_likelihood"]["within_3_sigma"] for r in runs)
+    log(f"  all sets: max likelihood all three within 3 reported sigma in {n_ok}/{n} windows "
+        f"({100.0 * n_ok / max(n, 1):.0f} %; goal >= 90 %)")
+    return {"by_set": by_set, "runs": runs, "all_three_within_3_sigma": int(n_ok), "n": n,
+            "data": DATA["identifier"], "guess_factor": list(IDENT_GUESS), "window": list(setup.ident_window)}
+
+
 # ---- output ---------------------------------------------------------------------------------
 def _public(x):
     if isinstance(x, dict):
@@ -429,7 +538,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10, help="random seeds for Table 5")
     ap.add_argument("--compare-seeds", type=int, default=3, help="seeds for the identifier comparison")
     ap.add_argument("--out", default="results/seed000_rl_dlac", help="output directory (JSON, PNGs)")
-    ap.add_argument("--parts", default="1,2,3,4,5", help="parts to run (comma-separated; 4 and 5 need 3); "
+    ap.add_argument("--ident-seeds", type=int, default=10, help="seeds per true set of the identifier study (6)")
+    ap.add_argument("--parts", default="1,2,3,4,5,6", help="parts to run (comma-separated; 4 and 5 need 3); "
                     "results of parts not run are kept from an existing JSON in --out")
     from hyper_nav_sim import campaign
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the seeds as a dask campaign
@@ -449,7 +559,7 @@ def main(argv=None) -> int:
     if parts & {4, 5} and 3 not in parts:
         ap.error("parts 4 and 5 need part 3")
     json_path = out_dir / "seed000_rl_dlac.json"
-    result = json.loads(json_path.read_text()) if json_path.exists() and parts != {1, 2, 3, 4, 5} else {}
+    result = json.loads(json_path.read_text()) if json_path.exists() and parts != {1, 2, 3, 4, 5, 6} else {}
     result.update({"paper": PAPER, "setup": _public(dataclasses.asdict(setup))})
     if 1 in parts:
         log("1. Cramer-Rao bound of (w1, w2, w3) from one window, 1-sigma relative (mean data):")
@@ -472,6 +582,11 @@ def main(argv=None) -> int:
         run0 = t5["runs"][0]
         sc0 = _scenario(setup.scenario, run0["seed"], setup)
         result["navigation"] = navigation_errors(sc0, _learning(sc0), run0, log, setup.nav_duration_s)
+    if 6 in parts:
+        n_id = 1 if args.short else args.ident_seeds
+        log(f"\n6. The identifier on the simulator's own data, excited + carrier-phase-grade, "
+            f"{len(setup.ident_sets)} true sets x {n_id} seeds (maximum likelihood; DDPG beside it):")
+        result["identifier"] = identifier_study(setup, range(n_id), log, opts, out_dir / "runs")
     result["wall_s"] = time.perf_counter() - t_start
     result = _public(result)
     json_path.write_text(json.dumps(result, indent=1))

@@ -26,6 +26,14 @@ def test_short_mode_writes_every_part(tmp_path, capsys):
         assert set(r["compare"][case]["summary"]) == {"ddpg", "cmaes", "nelder_mead", "max_likelihood"}
         assert r["compare"][case]["data"].startswith("simulator world" if case != "excited" else "perfect-model")
         assert all(v["data"] == r["compare"][case]["data"] for v in r["compare"][case]["summary"].values())
+    ident = r["identifier"]
+    assert ident["data"].startswith("simulator world") and "carrier-phase-grade" in ident["data"]
+    (row,) = ident["runs"]
+    assert row["set"] == "paper Table 4" and row["ddpg"]["n_passes"] >= 1
+    ml = row["max_likelihood"]
+    # a window with no doublet (the short flight) leaves the frequencies unobservable: not converged, not counted
+    assert ml["within_3_sigma"] == (ml["converged"] and bool(np.all(np.abs(ml["error_over_sigma"]) < 3.0)))
+    assert ident["all_three_within_3_sigma"] == int(ml["within_3_sigma"]) and ident["n"] == 1
     nav = r["navigation"]["runs"]
     assert set(nav) == {"KF-FLAC (rigid r0)", "DLAC, Table 2", "RL-DLAC"}
     assert all(v["rms_3d"]["pos"] < 10.0 for v in nav.values())

@@ -104,6 +104,9 @@ _DEFAULTS = {
     "vehicle_mass_kg": 1000.0,
     "modal_noise_per_sqrt_hz": [0.0, 0.0, 0.0],
     "start_at_equilibrium": True,
+    # the load sensor (a second accelerometer triad at the structure's rigid root,
+    # ``simulate._measured_load``): its output rate, a whole multiple of the IMU rate
+    "load_sensor_rate_hz": 400.0,
 }
 
 
@@ -145,6 +148,7 @@ class LeverArmConfig:
     vehicle_mass_kg: float
     modal_noise_per_sqrt_hz: np.ndarray     # w_qi PSD^(1/2), [q units / s^2 / sqrt(Hz)]
     start_at_equilibrium: bool
+    load_sensor_rate_hz: float = 400.0      # the structure-load triad's output rate [Hz]
 
     @classmethod
     def from_config(cls, d: dict | None, prefix: str = "lever_arm") -> "LeverArmConfig":
@@ -180,6 +184,7 @@ class LeverArmConfig:
             vehicle_mass_kg=_num(n("vehicle_mass_kg"), g["vehicle_mass_kg"], positive=True),
             modal_noise_per_sqrt_hz=_vec3(n("modal_noise_per_sqrt_hz"), g["modal_noise_per_sqrt_hz"], nonneg=True),
             start_at_equilibrium=g["start_at_equilibrium"],
+            load_sensor_rate_hz=_num(n("load_sensor_rate_hz"), g["load_sensor_rate_hz"], positive=True),
         )
 
     @property

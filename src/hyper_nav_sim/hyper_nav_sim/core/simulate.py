@@ -24,9 +24,10 @@ class ImuStream:
     dt_s: float
     dtheta_b_rad: np.ndarray
     dvel_b_mps: np.ndarray
-    # with the elastic lever arm on: the lever-arm-free specific force at the CG, mean over each
-    # interval (body FLU, m/s^2), whose body-z part loads the structure (F_n = m f_b,z,
-    # ``lever_arm.normal_force_from_trajectory``): the known input u_q of seed 000 eq. 22
+    # with the elastic lever arm on: the lever-arm-free specific force at the CG as the load
+    # sensor measures it (``_measured_load``), (N, n_sub, 3): the means over the n_sub equal
+    # sub-intervals of each IMU interval (body FLU, m/s^2), whose body-z part loads the structure
+    # (F_n = m f_b,z, ``lever_arm.normal_force_from_trajectory``): the known input u_q of seed 000 eq. 22
     load_f_b_mps2: np.ndarray | None = None
 
 
@@ -48,23 +49,36 @@ def imu_stream(sc: Scenario, traj, error_free: bool = False) -> ImuStream:
         cfg = LeverArmConfig.from_config(sc.data["lever_arm"])
         if cfg.enabled:
             world = sc.world_config()
-            load = _measured_load(dth, dv, dt, sc)
+            load = _measured_load(traj, t, dt, cfg.load_sensor_rate_hz, sc)
             dv = add_lever_arm_to_increments(dv, t, dt, traj, cfg, rng=sc.rng("lever_arm"),
                                              integrator=world.lever_arm_integrator, step_s=world.lever_arm_step_s)
     dth, dv = corrupt_increments(dth, dv, dt, ImuErrors.from_scenario(sc), sc.rng("imu"))
     return ImuStream(t, dt, dth, dv, load)
 
 
-def _measured_load(dth_b_rad, dv_b_mps, dt_s: float, sc: Scenario) -> np.ndarray:
+def _measured_load(traj, t_end_s, dt_s: float, rate_hz: float, sc: Scenario) -> np.ndarray:
     """The structure's load as the filter may know it: the lever-arm-free
     specific force (seed 000 eqs. 4-6, the known input of eq. 22) measured
     by a second accelerometer triad at the structure's rigid root, of the
     navigation IMU's grade (the scenario's ``imu`` accelerometer errors:
     bias, noise, scale factor, misalignment, Markov) with its own noise
-    draw (stream ``structure_load``). The filter never gets the exact
+    draw (stream ``structure_load``), sampled at ``lever_arm.load_sensor_rate_hz``
+    (an integer multiple n of the IMU rate): returns (N, n, 3), the mean
+    specific force over each of the n equal sub-intervals of every IMU
+    interval (t - dt, t]. The higher modes need the sub-interval samples:
+    a 50 Hz interval mean held over the interval is a staircase whose steps
+    ring mode 3 (w dt = 2.3) as the world's continuous load does not
+    (``benchmarks/lever_arm_model_fit.py``). The filter never gets the exact
     force: handing it the truth would make the world the filter's model."""
-    _, dv_meas = corrupt_increments(dth_b_rad, dv_b_mps, dt_s, ImuErrors.from_scenario(sc), sc.rng("structure_load"))
-    return dv_meas / dt_s
+    n = int(round(rate_hz * dt_s))
+    if n < 1 or abs(n - rate_hz * dt_s) > 1e-6:
+        raise ValueError(f"lever_arm.load_sensor_rate_hz: must be a whole multiple of imu.rate_hz "
+                         f"({1.0 / dt_s:g} Hz), got {rate_hz:g}")
+    h = dt_s / n
+    t_sub = (np.asarray(t_end_s, float)[:, None] - dt_s + h * np.arange(1, n + 1)).ravel()
+    dth_sub, dv_sub = traj.imu_increments(t_sub, h)
+    _, dv_meas = corrupt_increments(dth_sub, dv_sub, h, ImuErrors.from_scenario(sc), sc.rng("structure_load"))
+    return (dv_meas / h).reshape(len(t_end_s), n, 3)
 
 
 def gnss_receiver(sc: Scenario):

@@ -5,6 +5,14 @@ interval (previous stamp, header.stamp], angular_velocity = delta-theta / dt
 and linear_acceleration = delta-v / dt in body FLU (frame ``base_link``).
 No orientation: orientation_covariance[0] = -1. The rate covariances are the
 white-noise variances at the sample rate (ARW^2 / dt, VRW^2 / dt).
+
+With the scenario's elastic lever arm on (seed 000), ``imu/load`` carries the
+structure's load sensor (``simulate._measured_load``, at
+``lever_arm.load_sensor_rate_hz``): one sensor_msgs/Imu per load sample,
+linear_acceleration = its mean specific force over (previous load stamp,
+header.stamp] (body FLU), angular_velocity zero with covariance[0] = -1
+(not measured). The load samples of an IMU interval are queued before the
+IMU sample that ends it. Other scenarios publish no load topic.
 """
 from __future__ import annotations
 
@@ -30,10 +38,26 @@ class ImuNode(ClockDrivenSensor):
         self.gyro_var = err.gyro_arw_rad_per_sqrt_s**2 / dt
         self.accel_var = err.accel_vrw_mps_per_sqrt_s**2 / dt
         self.pub = self.create_publisher(Imu, "imu/data_raw", self.qos)
+        self.pub_load = None
+        if self.stream.load_f_b_mps2 is not None:
+            load = self.stream.load_f_b_mps2.reshape(len(self.stream.t_s), -1, 3)
+            n_sub = load.shape[1]
+            t_sub = self.stream.t_s[:, None] - dt + (dt / n_sub) * np.arange(1, n_sub + 1)
+            t_sub[:, -1] = self.stream.t_s           # the last load sample ends with the IMU interval
+            self._load_t, self._load = t_sub.ravel(), load.reshape(-1, 3)
+            self.pub_load = self.create_publisher(Imu, "imu/load", self.qos)
+            self.schedule(self._load_t, self.pub_load, self._make_load)    # before the IMU sample at equal epochs
         self.schedule(self.stream.t_s, self.pub, self._make)
 
     def publishers_to_match(self):
-        return [self.pub]
+        return [self.pub] if self.pub_load is None else [self.pub, self.pub_load]
+
+    def _make_load(self, i: int) -> Imu:
+        m = self.stamp(Imu(), self._load_t[i], self.frame_id)
+        m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, self._load[i])
+        m.orientation_covariance[0] = -1.0
+        m.angular_velocity_covariance[0] = -1.0
+        return m
 
     def _make(self, i: int) -> Imu:
         s, dt = self.stream, self.stream.dt_s

@@ -60,6 +60,8 @@ PARAMS = (
     ParamSpec("agent.updates_per_step", INT, 10, "gradient steps per environment step (our choice)", lo=1, hi=1000),
     positive("diagnostics_period_s", FLOAT, 1.0, "period of /diagnostics (s, wall clock)"),
     ParamSpec("qos.depth", INT, 2000, "subscription depth", lo=1, hi=100000),
+    ParamSpec("load_topic", STR, "", "sensor_msgs/Imu topic of the structure's load sensor (seed 000 eq. 22's u_q; "
+              "the windows carry it, as the fusion node's imu source takes it); empty: none"),
 )
 
 
@@ -76,6 +78,7 @@ class LeverArmLearningConfig:
     worker_nice: int
     diagnostics_period_s: float
     qos_depth: int
+    load_topic: str = ""
 
     @classmethod
     def from_flat(cls, values: dict, prefix: str = BLOCK + ".") -> "LeverArmLearningConfig":
@@ -95,7 +98,7 @@ class LeverArmLearningConfig:
         except ValueError as exc:
             raise ConfigError(f"{prefix}{exc}") from None
         return cls(trig, v["window_s"], v["state_period_s"], rc, v["update_lead_s"], v["update_delay_s"], v["gnss_hold_s"], v["worker_grace_s"],
-                   v["worker_nice"], v["diagnostics_period_s"], v["qos.depth"])
+                   v["worker_nice"], v["diagnostics_period_s"], v["qos.depth"], v["load_topic"])
 
     @classmethod
     def from_block(cls, block: dict | None, prefix: str = BLOCK) -> "LeverArmLearningConfig":

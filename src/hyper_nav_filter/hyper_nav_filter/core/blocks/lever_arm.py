@@ -100,14 +100,16 @@ class ElasticLeverArm(Block):
         ``dtheta_c``/``dvel_c`` are bias-corrected; ``w_prev`` the corrected mean
         rate of the previous interval (None at the first). ``load_f_b_mps2``: the
         lever-arm-free specific force loading the structure (eqs. 4-6, the known
-        input of eq. 22; ``ImuSample.load_f_b_mps2``), else None: the measured
+        input of eq. 22; ``ImuSample.load_f_b_mps2``: the interval mean (3,) or
+        the load sensor's n sub-interval means (n, 3), each held over its
+        sub-interval), else None: the measured
         one (``LeverArmCompensator``'s doc says what that costs). ``fast``: the
         compiled form (core.fast.lever), else the reference ``LeverArmCompensator``."""
         load = None if load_f_b_mps2 is None else np.asarray(load_f_b_mps2, dtype=np.float64)
         if fast:        # the compiled form starts unset (NaN) modes at the static deflection itself
-            # (its ``dv`` argument is used for the load only)
+            f_load = (dvel_c_b_mps / float(dt_s) if load is None else load).reshape(-1, 3)
             return fast_lever.compensate(np.ascontiguousarray(value), dtheta_c_b_rad,
-                                         dvel_c_b_mps if load is None else load * float(dt_s), float(dt_s),
+                                         np.ascontiguousarray(f_load), float(dt_s),
                                          _ZERO3 if w_prev_radps is None else w_prev_radps, w_prev_radps is not None,
                                          _fast_model(cfg))
         m = modal_model(cfg)
