@@ -130,7 +130,8 @@ class FusionNode(Node):
         # no allowance before the inputs are matched from this side (clock_gate: a time source that waits
         # for this node sends nothing this node's subscriptions would drop)
         self._input_subs = []
-        imu_topics = [inp.topic for src in self.router.sources if src.drives_time for inp in src.inputs()]
+        imu_topics = [inp.topic for src in self.router.sources if src.drives_time for inp in src.inputs()
+                      if inp.role == "main"]
         self.allowance = ClockAllowance(self, ready=InputsReady(self, lambda: self._input_subs, required=imu_topics))
         self._clock_s = -np.inf          # the newest /clock taken (in this executor, beside the inputs)
         self._set_allowance()
