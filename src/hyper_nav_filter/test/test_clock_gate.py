@@ -22,7 +22,7 @@ BEST_EFFORT = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=
 
 @pytest.fixture
 def two_participants():
-    domain = isolated_domain_id() + 50
+    domain = isolated_domain_id()          # 100-199: Fast DDS takes ids up to 232 (ports)
     ctxs, nodes, execs = [], [], []
     for name in ("subscriber_side", "publisher_side"):
         ctx = rclpy.context.Context()
