@@ -3,7 +3,6 @@ the expected result: the same solution as the offline core, within the
 accuracy limits against the recorded truth. A truncated copy still replays."""
 import pathlib
 import shutil
-import time
 
 import numpy as np
 import pytest
@@ -70,7 +69,7 @@ def test_committed_bag_replays_into_live_fusion_node():
               "publish_clock": False, "allowance_nodes": ["fusion"]}
     with Graph("default", nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
         with TopicCollector(outputs, domain_id=g.domain_id) as c:
-            time.sleep(0.5)
+            assert c.wait_matched()                    # the node's outputs matched from this side first
             g.node_params["player"] = player
             g._spawn("player")
             assert g.procs["player"].wait(timeout=60) == 0, g.log("player")

@@ -5,9 +5,11 @@ at real time, and the whole walk played at 50x held back by the fusion
 node's allowance (slow), into a live fusion node give the same solutions as
 the offline core over the same bag, bit for bit (issue 21: live == offline
 on the real bag).
-Issue 22: the player waits for the node's allowance, which the node sends
-only once its subscriptions have matched the player (clock_gate.InputsReady;
-before that, a loaded run lost the first 0.2 s of IMU messages)."""
+Issue 22: the collector matches the node's nav/state before the player
+starts, the player waits for the node's allowance, which the node sends
+only once its subscriptions have matched the player, and the player's
+not-heard timeout counts from its start (before that, loaded runs lost
+the first 0.2 to 5 s of solutions)."""
 import numpy as np
 import pytest
 import yaml

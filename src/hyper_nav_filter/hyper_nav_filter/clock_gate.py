@@ -34,10 +34,10 @@ own side (``ClockAllowance(ready=InputsReady(...))``): the time source's
 publisher counts a subscription as matched once *it* has discovered it, and
 starts sending; the subscriber may discover that publisher later, and a
 volatile reliable reader drops what a writer sent before the reader matched
-it. Seen on the walk replay (issue 22): the fusion node lost the first 0.2 s
-of IMU messages under load, and its solutions differed from the offline
-core's. While the gate has not heard a node it holds the clock (up to its
-``timeout_s``), so nothing is sent before the subscriber is ready.
+it. While the gate has not heard a node it holds the clock, up to its
+``timeout_s`` counted from the start of the flight or replay
+(``AllowanceGate.restart``), so nothing is sent before the subscriber is
+ready (issue 22, docs/faults-and-timing.md).
 """
 from __future__ import annotations
 
@@ -145,6 +145,7 @@ class AllowanceGate:
     start as not waited for (``dropped``)."""
 
     def __init__(self, node, expected, timeout_s: float = 10.0):
+        self.node = node
         self.expected = set(expected)
         self.timeout_s = float(timeout_s)
         self.t0 = time.monotonic()
@@ -153,6 +154,15 @@ class AllowanceGate:
         self.dropped: set[str] = set()
         if self.expected:
             node.create_subscription(KeyValue, TOPIC, self._on, _QOS)
+
+    def restart(self) -> None:
+        """Count the not-heard-yet timeout from now: call it when the time
+        source starts (after waiting for its subscribers), so a node that
+        took long to start (loaded machine: its subscriptions, its inputs'
+        matching) is not dropped before the first message is due (ci14: a
+        player dropped the fusion node while waiting for its subscribers,
+        ran free and the node lost the first 0.8 s)."""
+        self.t0 = time.monotonic()
 
     def _on(self, msg) -> None:
         if msg.key in self.expected:
@@ -171,9 +181,15 @@ class AllowanceGate:
                 if now - self.t0 < self.timeout_s:
                     lim = min(lim, 0.0)
                 else:
-                    self.dropped.add(name)
+                    self._drop(name, "never heard")
             elif now - a[1] > self.timeout_s:
-                self.dropped.add(name)
+                self._drop(name, "silent")
             else:
                 lim = min(lim, a[0])
         return lim
+
+    def _drop(self, name: str, why: str) -> None:
+        if name not in self.dropped:
+            self.node.get_logger().warning(f"clock gate: {name} {why} for {self.timeout_s:g} s (wall); "
+                                           "not waiting for it while it stays so")
+        self.dropped.add(name)

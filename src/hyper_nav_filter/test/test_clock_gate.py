@@ -2,8 +2,10 @@
 node's input subscription counts as matched only when the node's own side
 has matched the publisher; its allowance is published only from then on;
 a publisher that can never match (incompatible QoS) does not hold the gate
-for longer than the timeout (issue 22: the walk replay lost its first 0.2 s
-of IMU data to a subscriber that had not yet matched the player)."""
+for longer than the timeout; a time source's not-heard timeout counts from
+its restart (issue 22: the walk replay lost its first solutions between
+nodes matched on one side only, and to a player that had dropped the fusion
+node from its gate before it started)."""
 import time
 
 import pytest
@@ -13,7 +15,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
 
-from hyper_nav_filter.clock_gate import TOPIC, ClockAllowance, InputsReady
+from hyper_nav_filter.clock_gate import TOPIC, AllowanceGate, ClockAllowance, InputsReady
 from hyper_nav_sim.testing import isolated_domain_id
 
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -82,3 +84,14 @@ def test_a_publisher_that_never_matches_holds_the_gate_only_until_the_timeout(tw
     assert not ready() and ready.unmatched() == ["/imu/data_raw (0 of 1 publishers matched)"]
     assert _spin_until(execs, ready, 20.0)
     assert time.monotonic() - t0 >= 1.0 and sub.get_publisher_count() == 0
+
+
+@pytest.mark.graph
+def test_the_gate_counts_its_not_heard_timeout_from_its_restart(two_participants):
+    (node, _), execs = two_participants
+    gate = AllowanceGate(node, ["fusion"], timeout_s=0.3)
+    time.sleep(0.4)                  # the time source waited this long for its subscribers
+    gate.restart()
+    assert gate.limit_s() == 0.0 and not gate.dropped               # still held for the node
+    time.sleep(0.4)
+    assert gate.limit_s() == float("inf") and gate.dropped == {"fusion"}     # never heard: no longer waited for

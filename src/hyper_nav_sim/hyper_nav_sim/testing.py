@@ -41,9 +41,10 @@ class TopicCollector:
         self.context = rclpy.context.Context()
         rclpy.init(context=self.context, domain_id=self.domain_id)
         self.node = rclpy.create_node(self.name, context=self.context)
+        self.subscriptions = {}
         for topic, cls in self.topics.items():
             qos = latched_qos(self.depth) if topic in self.latched else publisher_qos(self.depth)
-            self.node.create_subscription(cls, topic, self._callback(topic), qos)
+            self.subscriptions[topic] = self.node.create_subscription(cls, topic, self._callback(topic), qos)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, daemon=True)
@@ -65,6 +66,21 @@ class TopicCollector:
 
     def publisher(self, cls, topic: str, depth: int = 2000):
         return self.node.create_publisher(cls, topic, publisher_qos(depth))
+
+    def wait_matched(self, topics=None, timeout_s: float = 60.0) -> bool:
+        """Wait until each subscription of ``topics`` (default: all) has
+        matched at least one publisher *from this side*. A publisher counts
+        a subscription as matched when it has discovered it, and may send
+        before the subscription has matched it back: what it sends then is
+        dropped (issue 22: at 50x, the first 5 s of a run's nav/state were
+        lost this way). Start the data flowing after this returns True."""
+        deadline = time.monotonic() + timeout_s
+        subs = [self.subscriptions[t] for t in (topics or self.subscriptions)]
+        while time.monotonic() < deadline:
+            if all(s.get_publisher_count() >= 1 for s in subs):
+                return True
+            time.sleep(0.05)
+        return False
 
     def wait_for(self, predicate, timeout_s: float = 30.0) -> bool:
         deadline = time.monotonic() + timeout_s
@@ -107,7 +123,9 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
               "publish_clock": False, "allowance_nodes": ["fusion"]}
     with Graph(str(scenario), nodes=("fusion",), extra_subscribers={t: 1 for t in outputs if t not in latched}) as g:
         with TopicCollector(outputs, domain_id=g.domain_id, latched=latched) as c:
-            time.sleep(0.5)
+            # the fusion node's outputs matched from the collector's side before any input flows (else its
+            # first solutions can be sent before the collector takes them: lost)
+            assert c.wait_matched(["nav/state"]), "the fusion node's nav/state never matched the collector"
             g.node_params["player"] = player
             g._spawn("player")
             assert g.procs["player"].wait(timeout=player_timeout_s) == 0, g.log("player")

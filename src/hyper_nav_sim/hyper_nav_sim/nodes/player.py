@@ -198,6 +198,7 @@ class Player(Node):
     def play(self) -> None:
         """Publish every readable message, paced by log time / rate."""
         t0, wall0 = None, time.monotonic()
+        self.gate.restart()                    # the waited-for nodes' not-heard timeout counts from here
         self.get_logger().info(f"replaying {len(self.pubs)} topics at {self.rate}x")
         for record in self.reader:
             if not rclpy.ok(context=self.context):

@@ -91,6 +91,7 @@ class TruthNode(Node):
                 and all(self.count_subscribers(t) >= n for t, n in zip(self.wait_topics, self.wait_counts))):
             return
         self.timer.cancel()
+        self.gate.restart()                    # the nodes' not-heard timeout counts from the start of the flight
         self.get_logger().info(f"subscribers matched; flying {self.scenario.name} at {self.rtf}x real time")
         self.t_wall0 = time.monotonic()
         self.timer = self.create_timer(min(0.01, self.step_s / self.rtf), self._tick)
