@@ -23,6 +23,20 @@ REPO = pathlib.Path(__file__).resolve().parents[4]
 RADAR_SIGMA = np.array([2000.0, 0.01, 0.01])
 
 
+
+def _monte_carlo_inputs(tr, cfg, runs: int, seed: int = 11):
+    """Radar measurements (runs, n, 3), initial scaled states drawn from the
+    filter's P0 (the lift coefficient state at 0) and step lengths (n, runs)
+    for ``filters.run_batch`` over a track."""
+    n = len(tr.t_s)
+    rng = np.random.default_rng(seed)
+    Z = tr.x[None, :, :3] + RADAR_SIGMA * rng.standard_normal((runs, n, 3))
+    x0 = gm.to_scaled(tr.x[0])[None] + rng.standard_normal((runs, 7)) * np.sqrt(np.diag(cfg.P0))
+    x0[:, 6] = 0.0
+    DT = np.ones((n, runs))
+    DT[0] = 0.0
+    return Z, x0, DT
+
 def test_ekf_is_consistent_on_a_non_maneuvering_glide():
     """30 Monte Carlo runs of radar noise over a 700 s glide at c_l = 0.3 (no
     lateral maneuver) flown by the simulator (rotating WGS-84 Earth, US76):
@@ -36,12 +50,7 @@ def test_ekf_is_consistent_on_a_non_maneuvering_glide():
     cfg = TrackerConfig(filter_type="EKF", nominal_c_l=0.3, q_h_m=1.0, q_lonlat_rad=1e-7, q_v_mps=3.0,
                         q_gamma_rad=1e-3, q_psi_rad=5e-4, q_chi=0.01, init_sigma_chi=0.01)
     runs, n = 30, len(tr.t_s)
-    rng = np.random.default_rng(11)
-    Z = tr.x[None, :, :3] + RADAR_SIGMA * rng.standard_normal((runs, n, 3))
-    x0 = gm.to_scaled(tr.x[0])[None] + rng.standard_normal((runs, 7)) * np.sqrt(np.diag(cfg.P0))
-    x0[:, 6] = 0.0
-    DT = np.ones((n, runs))
-    DT[0] = 0.0
+    Z, x0, DT = _monte_carlo_inputs(tr, cfg, runs)
     _, out = filters.run_batch(filters.build_filter(cfg), x0, np.repeat(cfg.P0[None], runs, 0),
                                np.swapaxes(gm.measurement_to_scaled(Z), 0, 1), DT)
     e = np.asarray(out["x"], float)[..., :6] - gm.to_scaled(tr.x)[:, None, :6]
@@ -121,12 +130,7 @@ def test_scenario_q_makes_the_ekf_conservative_on_a_glide():
     cfg = replace(tracker_config(load_scenario("seed002_s1")), filter_type="EKF")
     tr = _glide_track()
     runs, n = 10, len(tr.t_s)
-    rng = np.random.default_rng(11)
-    Z = tr.x[None, :, :3] + RADAR_SIGMA * rng.standard_normal((runs, n, 3))
-    x0 = gm.to_scaled(tr.x[0])[None] + rng.standard_normal((runs, 7)) * np.sqrt(np.diag(cfg.P0))
-    x0[:, 6] = 0.0
-    DT = np.ones((n, runs))
-    DT[0] = 0.0
+    Z, x0, DT = _monte_carlo_inputs(tr, cfg, runs)
     lo, hi = chi2.ppf([0.025, 0.975], 6 * runs) / runs
     out_nees = []
     for c in (cfg, replace(cfg, q_v_mps=3.0, q_gamma_rad=1e-3, q_psi_rad=5e-4, q_chi=0.01, init_sigma_chi=0.01)):
