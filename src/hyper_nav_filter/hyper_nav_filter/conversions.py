@@ -58,6 +58,29 @@ def gnss_velocity(msg) -> GnssVelocity:
     return GnssVelocity(stamp_to_s(msg.header.stamp), np.array([v.x, v.y, v.z]), cov)
 
 
+def _stamps_s(fields: dict) -> list[float]:
+    """``stamp_to_s`` over a topic's header stamp columns."""
+    return (fields["header.stamp.sec"] + fields["header.stamp.nanosec"] * 1e-9).tolist()
+
+
+def gnss_positions(fields: dict) -> list[GnssPosition]:
+    """``gnss_position`` over a NavSatFix topic read into arrays ({dotted
+    field path: column}, ``hyper_nav_sim.core.bag_arrays``): the same values,
+    message for message (no status or covariance-type checks here, as there)."""
+    lat = np.deg2rad(fields["latitude"].astype(float)).tolist()
+    lon = np.deg2rad(fields["longitude"].astype(float)).tolist()
+    alt = fields["altitude"].astype(float).tolist()
+    cov = np.asarray(fields["position_covariance"], dtype=float).reshape(-1, 3, 3)
+    return [GnssPosition(t, la, lo, h, c) for t, la, lo, h, c in zip(_stamps_s(fields), lat, lon, alt, cov)]
+
+
+def gnss_velocities(fields: dict) -> list[GnssVelocity]:
+    """``gnss_velocity`` over a TwistWithCovarianceStamped topic read into arrays."""
+    v = np.column_stack([fields[f"twist.twist.linear.{a}"] for a in "xyz"]).astype(float)
+    cov = np.asarray(fields["twist.covariance"], dtype=float).reshape(-1, 6, 6)[:, :3, :3]
+    return [GnssVelocity(t, vi, c) for t, vi, c in zip(_stamps_s(fields), v, cov)]
+
+
 def _system(code) -> str:
     return GNSS_SYSTEMS.get(int(code), f"?{int(code)}")
 

@@ -9,13 +9,19 @@ conversion: stamp ``sec + nanosec * 1e-9``, the rate vectors as they are
 stored), with the source's counters kept as ``SourceType.on_message`` keeps
 them; every other message goes through the declared sources
 (``SourceRouter``) as in the live node, as a read-only view of its row
-(``RowView``), so a converter sees what it sees live. No rclpy here.
+(``RowView``), so a converter sees what it sees live, or, for a source type
+that converts column by column (``SourceType.prepare_rows``: the loosely
+coupled GNSS fixes and velocities), as the item it made of that row, fed with
+the counters ``on_message`` keeps (``on_prepared``). No rclpy here.
 
 Topics are duck-typed: ``.topic``, ``.msgtype``, ``.fields`` ({dotted
 path: array}), ``len()``, ``.t_ns`` and ``.seq`` (log time and file order)
 and ``.stamp_ns``.
 """
 from __future__ import annotations
+
+import contextlib
+import gc
 
 import numpy as np
 
@@ -111,7 +117,7 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
         return (list(eng.release(final=True)) if final else []), eng, router
     which, rows = ORDERS[order](topics)
     out: list[Solution] = []
-    fast = []                                   # per topic: the IMU source fed from arrays, or None
+    fast = []               # per topic: (IMU source, stamps, rates, forces), (source, role, prepared items) or None
     schemas = [row_schema(t.fields) for t in topics]
     for t in topics:
         routes = router.routes[t.topic.lstrip("/")]
@@ -122,15 +128,57 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
             w = np.column_stack([f[f"angular_velocity.{a}"] for a in "xyz"]).astype(float)
             a = np.column_stack([f[f"linear_acceleration.{a}"] for a in "xyz"]).astype(float)
             fast.append((src, stamp.tolist(), w, a))
+        elif len(routes) == 1 and not src.drives_time \
+                and (items := src.prepare_rows(role, t.fields, len(t))) is not None:
+            fast.append((src, role, items))          # converted column by column, fed one by one
         else:
             fast.append(None)
-    add_imu = eng.add_imu_rates
-    release = eng.release
     hooks = [s for s in router.sources if type(s).on_imu is not SourceType.on_imu]    # sources waiting on the IMU
     counters = {}
+    with _young_collections_only() as collect:
+        _feed(eng, router, topics, fast, schemas, which, rows, hooks, counters, out, progress, collect)
+    for src, n in counters.items():                # what SourceType.on_message counts per accepted sample
+        src.counters["received main"] += n
+        src.counters["processed main"] += n
+    if final:
+        out.extend(eng.release(final=True))
+    return out, eng, router
+
+
+GC_YOUNG_EVERY = 50_000          # messages between the replay's own young-generation collections
+
+
+@contextlib.contextmanager
+def _young_collections_only():
+    """The replay loop without the interpreter's automatic collections, with
+    a young-generation collection (``gc.collect(1)``) every GC_YOUNG_EVERY
+    messages instead (``_feed``). A replay keeps every solution it releases,
+    so the automatic full collections scan a heap that only grows: measured
+    on the default 300 s bag, 0.58 s with them against 0.53 s without
+    (least of three each, 15,000 epochs). The loop makes no cyclic garbage of
+    its own (92 unreachable objects after a whole replay with collection
+    off), so nothing piles up; the young collections bound what a source
+    that did make cycles could hold. The collector's state is restored on
+    exit, exceptions included."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield was                  # a caller that had turned collection off gets none
+    finally:
+        if was:
+            gc.enable()
+
+
+def _feed(eng, router, topics, fast, schemas, which, rows, hooks, counters, out, progress, collect) -> None:
+    """Every message in the chosen order into the engine (see run_offline_arrays)."""
+    add_imu = eng.add_imu_rates
+    release = eng.release
     for k, (i, r) in enumerate(zip(which.tolist(), rows.tolist())):
         fi = fast[i]
-        if fi is not None:
+        if fi is not None and len(fi) == 3:
+            src, role, items = fi
+            src.on_prepared(role, items[r], eng)
+        elif fi is not None:
             src, stamp, w, a = fi
             ok, reason = add_imu(stamp[r], w[r], a[r])
             if ok:
@@ -144,12 +192,8 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
             out.extend(router.handle_topic(topics[i].topic, RowView(topics[i].fields, r, schema=schemas[i]))[1])
         if progress is not None and k % 20000 == 0:
             progress(k)
-    for src, n in counters.items():                # what SourceType.on_message counts per accepted sample
-        src.counters["received main"] += n
-        src.counters["processed main"] += n
-    if final:
-        out.extend(eng.release(final=True))
-    return out, eng, router
+        if collect and k % GC_YOUNG_EVERY == GC_YOUNG_EVERY - 1:
+            gc.collect(1)
 
 
 def _count(src, reason: str) -> None:

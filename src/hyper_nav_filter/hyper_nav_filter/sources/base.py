@@ -98,6 +98,28 @@ class SourceType:
     def convert(self, role: str, msg, engine) -> str | None:
         raise NotImplementedError
 
+    def prepare_rows(self, role: str, fields: dict, n: int) -> list | None:
+        """Optional, for a recording read into arrays (``offline_arrays``):
+        what ``convert`` would make of each of the n messages whose fields
+        are ``fields`` ({dotted path: array}), converted column by column: a
+        list of n items, each the core measurement ``convert`` would queue or
+        the reason it would reject the message (str); ``on_prepared`` then
+        feeds them one at a time. None (the default): this type converts
+        message by message only."""
+        return None
+
+    def on_prepared(self, role: str, item, engine) -> str | None:
+        """``on_message`` for an item of ``prepare_rows``: the same counters
+        and the same engine call as the message would get."""
+        self.counters[f"received {role}"] += 1
+        reason = item if type(item) is str else self._queued(engine.add_measurement(item))
+        if reason is None:
+            self.counters[f"processed {role}"] += 1
+        else:
+            self.counters[f"rejected {role}"] += 1
+            self.counters[f"rejected {role}: {reason.split(':')[0]}"] += 1
+        return reason
+
     @staticmethod
     def _queued(result) -> str | None:
         ok, reason = result

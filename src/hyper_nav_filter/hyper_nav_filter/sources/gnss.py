@@ -75,6 +75,23 @@ class GnssFixSource(SourceType):
             meas = type(meas)(meas.t_s, meas.lat_rad, meas.lon_rad, meas.alt_m, np.diag(sig**2))
         return self._queued(engine.add_measurement(meas))
 
+    def prepare_rows(self, role, fields, n):
+        """``convert`` over a topic's arrays (``conversions.gnss_positions``)."""
+        sig = np.asarray(self.p["default_sigma_enu_m"], float)
+        allow = bool(np.all(sig > 0))
+        meas = conversions.gnss_positions(fields)
+        status = fields["status.status"]
+        cov_type = fields["position_covariance_type"]
+        out = []
+        for r, m in enumerate(meas):
+            if status[r] < 0:
+                out.append("no_fix")
+            elif cov_type[r] == 0:
+                out.append(type(m)(m.t_s, m.lat_rad, m.lon_rad, m.alt_m, np.diag(sig**2)) if allow else "no_covariance")
+            else:
+                out.append(m)
+        return out
+
 
 @register
 class GnssVelSource(SourceType):
@@ -84,6 +101,10 @@ class GnssVelSource(SourceType):
 
     def convert(self, role, msg, engine):
         return self._queued(engine.add_measurement(conversions.gnss_velocity(msg)))
+
+    def prepare_rows(self, role, fields, n):
+        """``convert`` over a topic's arrays (``conversions.gnss_velocities``)."""
+        return conversions.gnss_velocities(fields)
 
 
 @register
