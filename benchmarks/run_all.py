@@ -65,6 +65,10 @@ def _scenario(name, rate_hz, duration_s, overrides=None):
     over = {"duration_s": min(duration_s, sc["duration_s"]), **(overrides or {})}
     if rate_hz is not None:
         over["imu.rate_hz"] = rate_hz
+        if "lever_arm" in sc.data and (sc.data["lever_arm"] or {}).get("enabled", True):
+            # the structure-load triad samples each IMU interval a whole number of times
+            load_hz = float((sc.data["lever_arm"] or {}).get("load_sensor_rate_hz", 400.0))
+            over["lever_arm.load_sensor_rate_hz"] = rate_hz * max(1, round(load_hz / rate_hz))
     return apply_overrides(sc, over, scratch_dir("scenario_"))
 
 

@@ -534,6 +534,7 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 msg = str(exc)
                 raise ScenarioError(f"{source}: {msg if msg.startswith(key) else key + '.' + msg}") from None
+    _check_load_sensor_rate(data, source)
     for block, node in aiding_nodes.by_block().items():
         if block not in data:
             continue
@@ -565,6 +566,23 @@ def _validate_models(data: dict, source: str) -> None:
     if "flight" in data and "maneuvers" in data:
         raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both "
                             f"(a file that extends a kinematic scenario removes them with 'maneuvers: null')")
+
+
+def _check_load_sensor_rate(data: dict, source: str) -> None:
+    """The structure-load triad samples each IMU interval n times
+    (``simulate._measured_load``): its rate must be a whole multiple of the
+    IMU's, checked when the scenario loads rather than when it is flown."""
+    from .lever_arm import LeverArmConfig
+    if "lever_arm" not in data:
+        return
+    cfg = LeverArmConfig.from_config(data["lever_arm"])
+    imu_hz = float((data.get("imu") or {}).get("rate_hz", 0.0) or 0.0)
+    if not cfg.enabled or imu_hz <= 0.0:
+        return
+    n = cfg.load_sensor_rate_hz / imu_hz
+    if round(n) < 1 or abs(n - round(n)) > 1e-6:
+        raise ScenarioError(f"{source}: lever_arm.load_sensor_rate_hz: must be a whole multiple of imu.rate_hz "
+                            f"({imu_hz:g} Hz), got {cfg.load_sensor_rate_hz:g}")
 
 
 def _read_yaml(path) -> dict:

@@ -153,3 +153,16 @@ def test_set_null_removes_a_field(tmp_path):
 def test_every_shipped_scenario_still_loads():
     for path in sorted(find_scenario("default").parent.glob("*.yaml")):
         load_scenario(str(path))
+
+
+def test_a_load_sensor_rate_that_is_not_a_multiple_of_the_imu_rate_is_refused_at_load(tmp_path):
+    """The structure-load triad samples each IMU interval a whole number of
+    times: 400 Hz over a 500 Hz IMU is refused when the scenario loads,
+    naming the field (it used to fail only when the IMU was simulated);
+    400 Hz over 200 Hz loads."""
+    sc = load_scenario("seed000_elastic")
+    with pytest.raises(ScenarioError, match=r"lever_arm.load_sensor_rate_hz: must be a whole multiple of "
+                                            r"imu.rate_hz \(500 Hz\), got 400"):
+        apply_overrides(sc, {"imu.rate_hz": 500.0}, tmp_path)
+    assert apply_overrides(sc, {"imu.rate_hz": 200.0}, tmp_path)["imu.rate_hz"] == 200.0
+    assert apply_overrides(sc, {"imu.rate_hz": 500.0, "lever_arm.enabled": False}, tmp_path)["imu.rate_hz"] == 500.0
