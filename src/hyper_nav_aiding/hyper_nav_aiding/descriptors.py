@@ -61,11 +61,16 @@ def _geomag_parameters(sc) -> dict:
     return p
 
 
+def _geomag_mc_feed(sc, traj, cfg, publish):
+    from .mc_geomag import mc_feed
+    return mc_feed(sc, traj, cfg, publish)
+
+
 GEOMAG = AidingNode(
     name="geomag", package=PACKAGE, executable="geomag_node", block="geomag",
     validate=_geomag_config, parameters=_geomag_parameters,
     inputs=lambda block: {"imu/mag"}, outputs=lambda block: ["geomag/fix"], output_wait_parameter="min_subscribers",
-    validate_scenario=_geomag_map_epoch, gates_clock=True)
+    validate_scenario=_geomag_map_epoch, gates_clock=True, mc_feed=_geomag_mc_feed)
 
 
 # ---- lever-arm learning, RL-DLAC (seed 000) ----------------------------------------------

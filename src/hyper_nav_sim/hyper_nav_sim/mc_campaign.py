@@ -6,8 +6,10 @@
 
 Each run draws sensor noise, true biases and initial errors from the
 scenario's own distributions (``core/montecarlo.py``; ``--draw`` chooses
-which) and flies the fusion core over the scenario (IMU + loosely coupled
-GNSS, as ``offline_fly``). By default a ``LocalCluster`` on this machine
+which) and flies the fusion core over the scenario with its declared
+sources (``core/mc_sources.py``: loosely or tightly coupled GNSS, barometer,
+and aiding nodes' outputs through the nodes' own logic in the loop, e.g.
+geomagnetic map matching). By default a ``LocalCluster`` on this machine
 (one single-threaded worker process per core, bound to 127.0.0.1, no
 dashboard); ``--scheduler`` uses an existing cluster, nothing else changes.
 The numbers depend on the scenario and the run indices only, not on the

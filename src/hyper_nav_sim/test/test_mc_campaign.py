@@ -72,12 +72,60 @@ def test_tightly_coupled_and_barometric_scenarios_are_drawn(tmp_path, name, dura
     assert np.array_equal(again["err"]["pos"], r["err"]["pos"])
 
 
-def test_a_map_matching_source_is_refused_by_name(tmp_path):
+def test_a_source_no_simulated_sensor_or_configured_aiding_node_feeds_is_refused_by_name(tmp_path):
+    """A map-matching source without the geomag block (nothing publishes its
+    topic), and a source on an aiding node's output whose package declares no
+    Monte Carlo feed (the lever-arm learner's model updates): refused, naming
+    the source (and the node)."""
     data = apply_overrides(load_scenario("default"), {"duration_s": 2.0}, tmp_path).data
     data["filter"]["sources"] = {"imu": {"type": "imu", "topic": "imu/data_raw"},
                                  "geomag": {"type": "horizontal_fix", "topic": "geomag/fix"}}
-    with pytest.raises(ValueError, match="filter.sources.geomag"):
+    with pytest.raises(ValueError, match="filter.sources.geomag: type 'horizontal_fix' on 'geomag/fix' is not drawn"):
         montecarlo.run_one(data, 0)
+    data = apply_overrides(load_scenario("seed000_elastic"), {"duration_s": 2.0}, tmp_path).data
+    with pytest.raises(ValueError, match="filter.sources.lever_arm: its topic 'nav/model_update' is aiding node "
+                                         "'lever_arm''s output, which is not drawn"):
+        montecarlo.run_one(data, 0)
+
+
+GEOMAG_DURATION_S, GEOMAG_START_S = 24.0, 4.0
+
+
+def test_map_matching_is_drawn_with_the_geomag_node_in_the_loop(tmp_path):
+    """seed003_geomag (position fixes from the geomag node): each run's own
+    magnetometer draw goes through the node's logic against the run's own
+    released solutions (``hyper_nav_aiding.mc_geomag``) and its fixes reach
+    the filter through the declared source. The set-up and physics of the
+    graph test (test/test_geomag_graph.py): 300/-200 m initial horizontal
+    error, a small map; a fix per second from 4 s on, all taken; the
+    along-gradient error goes (below 40 m over the last 5 s), the
+    across-gradient error stays (above 150 m). The run depends on (scenario,
+    k) only."""
+    from hyper_nav_aiding.core.geomag_config import GeomagConfig
+    over = {"duration_s": GEOMAG_DURATION_S, "flight.duration_s": GEOMAG_DURATION_S, "report.skip_s": 1.0,
+            "geomag.start_s": GEOMAG_START_S,
+            "geomag.map": {**GeomagConfig().map.__dict__, "alt_m": 26000.0, "lat_min_deg": 40.0, "lat_max_deg": 41.0,
+                           "lon_min_deg": 111.0, "lon_max_deg": 112.0, "grid_step_deg": 0.05, "refine_factor": 40},
+            "geomag.map_cache_dir": str(tmp_path / "maps"), "geomag.field_sigma_nT": 0.1,
+            "magnetometer.map_error_rms_nT": 0.1,
+            "filter.initial_error.pos_enu_m": [300.0, -200.0, 5.0],
+            "filter.config.init_pos_sigma_m": [300.0, 300.0, 5.0]}
+    data = apply_overrides(load_scenario("seed003_geomag"), over, tmp_path).data
+    r = montecarlo.run_one(data, 0, draws=("noise",))         # the initial error as set above
+    (counts,) = r["aiding"]
+    n_fix = counts["published geomag/fix"]
+    assert n_fix >= GEOMAG_DURATION_S - GEOMAG_START_S - 3, counts
+    assert r["accepted"]["position_fix"] == n_fix and r["gated"]["position_fix"] == 0, (r["accepted"], r["gated"])
+    late = r["t_s"] > GEOMAG_DURATION_S - 5.0
+    u = np.array([-1.25, 4.3]) / np.hypot(1.25, 4.3)          # the field gradient there (the graph test's)
+    along = r["err"]["pos"][late, :2] @ u
+    across = r["err"]["pos"][late, :2] @ np.array([u[1], -u[0]])
+    print(f"\n{n_fix} fixes; last 5 s: along-gradient |error| max {np.abs(along).max():.1f} m, "
+          f"across {np.abs(across).min():.0f}-{np.abs(across).max():.0f} m")
+    assert np.abs(along).max() < 40.0
+    assert np.abs(across).min() > 150.0
+    again = montecarlo.run_one(data, 0, draws=("noise",))
+    assert np.array_equal(again["err"]["pos"], r["err"]["pos"]) and again["aiding"] == r["aiding"]
 
 
 class _SlowToReap:

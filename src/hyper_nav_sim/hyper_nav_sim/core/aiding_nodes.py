@@ -61,6 +61,12 @@ class AidingNode:
     validate_scenario: Callable[[dict], object] | None = None
     # the time source waits for its /graph/allowance (hyper_nav_filter.clock_gate)
     gates_clock: bool = False
+    # the node's logic in a Monte Carlo run (``core.mc_sources``), no rclpy: mc_feed(scenario, trajectory,
+    # filter config, publish) -> an object with ``events()`` ([(stamp, feed(engine))]: its inputs, fed when
+    # the run's IMU reaches their stamps) and ``released(engine, solutions)`` (the run's nav/state), which
+    # sends its outputs with publish(engine, topic, message) to the fusion sources on that topic; None: its
+    # outputs are not drawn in campaigns
+    mc_feed: Callable | None = None
 
     def wanted(self, data: dict, fusion_inputs: set[str]) -> bool:
         """Whether a scenario (validated mapping) runs this node: its block

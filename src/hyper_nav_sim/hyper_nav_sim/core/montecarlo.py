@@ -96,11 +96,15 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
     for i in range(len(imu.t_s)):
         eng.add_imu(imu.t_s[i], imu.dtheta_b_rad[i], imu.dvel_b_mps[i])
         feed.until(eng, imu.t_s[i])
-        sols += [s for s in eng.release() if _on_grid(s.t_s, grid_hz)]
+        released = eng.release()
+        feed.released(eng, released)
+        sols += [s for s in released if _on_grid(s.t_s, grid_hz)]
         if imu.t_s[i] >= next_grid - 1e-9:
             nis_rows.append((next_grid, _nis_deltas(eng.kf.stats, last)))
             next_grid += 1.0 / grid_hz
-    sols += [s for s in eng.release(final=True) if _on_grid(s.t_s, grid_hz)]
+    released = eng.release(final=True)
+    feed.released(eng, released)
+    sols += [s for s in released if _on_grid(s.t_s, grid_hz)]
     e = scoring.solution_errors(sols, traj)
     out = {"k": k, "seed": over.get("seed", data["seed"]), "draws": over, "t_s": e["t"],
            "err": {"pos": e["pos_enu_m"], "vel": e["vel_enu_mps"], "att": np.deg2rad(e["att_enu_deg"])},
@@ -115,6 +119,8 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
     out["nis"] = {kd: np.array([row.get(kd, (0, 0.0))[1] for _, row in nis_rows]) for kd in kinds}
     out["nis_n"] = {kd: np.array([row.get(kd, (0, 0.0))[0] for _, row in nis_rows]) for kd in kinds}
     out["gated"] = {kd: int(v[1]) for kd, v in eng.kf.stats.items()}
+    out["accepted"] = {kd: int(v[0]) for kd, v in eng.kf.stats.items()}
+    out["aiding"] = [dict(f.counts) for f in feed.aiding]     # the aiding nodes' counters (their diagnostics)
     out["cpu_s"] = time.process_time() - cpu0            # for throughput figures only, never in the statistics
     return out
 
