@@ -64,6 +64,27 @@ class RowView:
 _NESTED = object()
 
 
+class MessageTopic:
+    """A topic given as message objects rather than arrays (e.g. rosbags-
+    deserialized ``hyper_nav_msgs/GnssMeasurements``, whose string sequence
+    the field arrays split into one column per index and a row view cannot
+    read back): duck-typed as a topic of arrays for the ordering (``t_ns``
+    log times, ``seq`` log order, ``stamp_ns`` header stamps), fed through
+    the declared sources one message at a time, as ``run_offline`` feeds
+    it. ``messages`` in log order; every one has a header."""
+
+    def __init__(self, topic: str, msgtype: str, messages: list, t_ns):
+        self.topic, self.msgtype, self.messages = topic, msgtype, list(messages)
+        self.t_ns = np.asarray(t_ns, np.int64)
+        self.seq = np.arange(len(self.messages), dtype=np.int64)
+        self.stamp_ns = np.array([int(m.header.stamp.sec) * 1_000_000_000 + int(m.header.stamp.nanosec)
+                                  for m in self.messages], np.int64)
+        self.fields: dict = {}
+
+    def __len__(self) -> int:
+        return len(self.messages)
+
+
 def row_schema(fields: dict) -> dict:
     """{dotted path: its column, or _NESTED for every proper prefix of a
     field path} (``header``, ``header.stamp``, ``status.0``, ...)."""
@@ -117,12 +138,15 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
         return (list(eng.release(final=True)) if final else []), eng, router
     which, rows = ORDERS[order](topics)
     out: list[Solution] = []
-    fast = []               # per topic: (IMU source, stamps, rates, forces), (source, role, prepared items) or None
+    fast = []               # per topic: (topic, messages), (IMU source, stamps, rates, forces),
+                            # (source, role, prepared items) or None (row views)
     schemas = [row_schema(t.fields) for t in topics]
     for t in topics:
         routes = router.routes[t.topic.lstrip("/")]
         src, role = routes[0]
-        if len(routes) == 1 and src.drives_time and src.spec.type == "imu" and role == "main":
+        if isinstance(t, MessageTopic):
+            fast.append((t.topic, t.messages))       # message objects, through the router as run_offline does
+        elif len(routes) == 1 and src.drives_time and src.spec.type == "imu" and role == "main":
             f = t.fields
             stamp = f["header.stamp.sec"] + f["header.stamp.nanosec"] * 1e-9     # conversions.stamp_to_s
             w = np.column_stack([f[f"angular_velocity.{a}"] for a in "xyz"]).astype(float)
@@ -175,7 +199,10 @@ def _feed(eng, router, topics, fast, schemas, which, rows, hooks, counters, out,
     release = eng.release
     for k, (i, r) in enumerate(zip(which.tolist(), rows.tolist())):
         fi = fast[i]
-        if fi is not None and len(fi) == 3:
+        if fi is not None and len(fi) == 2:
+            topic, messages = fi
+            out.extend(router.handle_topic(topic, messages[r])[1])
+        elif fi is not None and len(fi) == 3:
             src, role, items = fi
             src.on_prepared(role, items[r], eng)
         elif fi is not None:

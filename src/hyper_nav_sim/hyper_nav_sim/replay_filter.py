@@ -105,13 +105,20 @@ def main(argv=None) -> int:
         return 2
 
 
+# message types the field arrays cannot give back as messages (a string sequence split into columns):
+# replayed from deserialized messages, the other topics from arrays
+PER_MESSAGE_TYPES = frozenset({"hyper_nav_msgs/msg/GnssMeasurements", "hyper_nav_msgs/msg/GnssEphemeris"})
+
+
 def _run(bag, s: Setup, inputs: set, keep_history: bool):
     """The fusion core over the bag's input topics, with progress on stderr.
     The bag is read into field arrays (``core/bag_arrays``) and the core fed
     from them (``hyper_nav_filter.offline_arrays``: ``run_offline``'s results
-    bit for bit, in stamp order); a recording of a live node that got inputs
-    behind the IMU (``nav/late_inputs``) replays on the per-message path in
-    the node's own order (``replay_order``). Returns (solutions, engine,
+    bit for bit, in stamp order; raw GNSS and ephemeris messages as
+    deserialized messages beside the arrays, ``PER_MESSAGE_TYPES``); a
+    recording of a live node that got inputs behind the IMU
+    (``nav/late_inputs``) replays on the per-message path in the node's own
+    order (``replay_order``). Returns (solutions, engine,
     truth states or None, IMU count, reader error, truncated)."""
     from hyper_nav_filter.offline_arrays import run_offline_arrays
     from hyper_nav_filter.replay_order import LATE_INPUTS_TOPIC
@@ -128,10 +135,7 @@ def _run(bag, s: Setup, inputs: set, keep_history: bool):
     stamps = [t.stamp_s for t in topics if len(t)]
     t0, t1 = min(float(x.min()) for x in stamps), max(float(x.max()) for x in stamps)
     progress = Progress("replay_filter", total=t1 - t0)
-    # gnss/raw carries a string sequence (``signal``) that the field arrays split into one column per
-    # index (signal.0, signal.1, ...) and a row view cannot read back as a sequence: the per-message path
-    raw_gnss = any(name.lstrip("/") == "gnss/raw" for name in arrays.topics if name.lstrip("/") in inputs)
-    if (late is not None and len(late)) or raw_gnss:
+    if late is not None and len(late):
         from hyper_nav_filter.offline import run_offline
 
         from .core.bag import deserialize, read_bag
@@ -140,6 +144,21 @@ def _run(bag, s: Setup, inputs: set, keep_history: bool):
         sols, eng = run_offline(records, s.config, s.initial, sources=s.sources, final=True,
                                 keep_history=keep_history)
     else:
+        # gnss/raw carries a string sequence (``signal``) that the field arrays split into one column per
+        # index (signal.0, signal.1, ...) and a row view cannot read back as a sequence: those topics are
+        # deserialized message by message (``MessageTopic``), the rest stays on arrays
+        per_message = {t.topic for t in topics if t.msgtype in PER_MESSAGE_TYPES and len(t)}
+        if per_message:
+            from hyper_nav_filter.offline_arrays import MessageTopic
+
+            from .core.bag import deserialize, read_bag
+            recs: dict[str, list] = {t: [] for t in per_message}
+            for r in read_bag(bag, topics=per_message):
+                recs[r.topic].append((r.t_ns, deserialize(r.raw, r.msgtype)))
+            msgtype = {t.topic: t.msgtype for t in topics}
+            topics = [t for t in topics if t.topic not in per_message] + \
+                [MessageTopic(name, msgtype[name], [m for _, m in rows], [n for n, _ in rows])
+                 for name, rows in recs.items() if rows]
         n_fed = sum(len(t) for t in topics)
         sols, eng, _ = run_offline_arrays(topics, s.config, s.initial, sources=s.sources, final=True,
                                           keep_history=keep_history,

@@ -161,3 +161,43 @@ def test_the_replay_leaves_the_garbage_collector_as_it_found_it(both):
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_raw_gnss_messages_beside_imu_arrays_give_the_per_message_solutions(tmp_path):
+    """A tightly coupled real recording (walk_0827, first 20 s after the
+    alignment, imported as a user does): ``replay_filter``'s core with the
+    IMU on arrays and the raw GNSS and ephemeris messages deserialized
+    (``MessageTopic``) gives ``run_offline``'s solutions and counters bit
+    for bit."""
+    from hyper_nav_filter.filter_setup import FilterSetup
+    from hyper_nav_filter.offline_arrays import MessageTopic
+    from hyper_nav_sim import import_data, repro_walk
+    from hyper_nav_sim.core.importer import gnss_raw
+    from hyper_nav_sim.replay_filter import PER_MESSAGE_TYPES
+    from hyper_nav_sim.spp import default_data_dir
+    if not (default_data_dir() / "walk_0827" / "imu_1730_sf.csv").exists():
+        pytest.skip("shared walk_0827 data not found")
+    imported = import_data.load_import(repro_walk.walk_yaml())
+    t_al = imported["alignment"].t_s
+    imported["imu"] = columns.window(imported["imu"], None, t_al + 20.0)
+    imported["gnss_raw"] = gnss_raw.window(imported["gnss_raw"], t_al - 0.5, t_al + 20.0)
+    bag = tmp_path / "walk"
+    import_data.write(imported, bag)
+    setup = FilterSetup.load(bag / "filter.yaml")
+    args = (setup.config, setup.initial, setup.sources)
+    records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)]
+    ref, eng_ref = run_offline(records, *args, final=True)
+    arrays = read_arrays(bag)
+    topics = [t for t in arrays.topics.values() if t.msgtype not in PER_MESSAGE_TYPES]
+    raw = {t.topic for t in arrays.topics.values() if t.msgtype in PER_MESSAGE_TYPES}
+    assert raw == {"/gnss/raw", "/gnss/ephemeris"}
+    for name in sorted(raw):
+        rows = [(r.t_ns, deserialize(r.raw, r.msgtype)) for r in read_bag(bag, topics=[name])]
+        topics.append(MessageTopic(name, arrays.topics[name].msgtype, [m for _, m in rows], [n for n, _ in rows]))
+    fast, eng_fast, _ = run_offline_arrays(topics, *args, final=True)
+    assert eng_ref.kf.stats["pseudorange"][0] > 500
+    assert len(ref) == len(fast) > 150
+    for a, b in zip(ref, fast):
+        assert a.t_s == b.t_s and a.n_updates == b.n_updates and np.array_equal(a.P, b.P)
+        assert (a.state.lat_rad, a.state.lon_rad, a.state.alt_m) == (b.state.lat_rad, b.state.lon_rad, b.state.alt_m)
+    assert dict(eng_ref.counters) == dict(eng_fast.counters)
