@@ -130,7 +130,8 @@ class GnssRawSource(SourceType):
                   "sigmas, or core.gnss.weighting's model", choices=("message", "elevation", "cn0", "elevation_cn0")),
         nonneg("elevation_mask_deg", FLOAT, 10.0, "elevation mask of the real-signal model (deg)"),
         ParamSpec("per_satellite", BOOL, False, "one update per satellite (the gate tests each satellite)"),
-        positive("range_bias_release_s", FLOAT, 30.0, "a range-bias slot is kept this long for an unseen satellite"),
+        positive("range_bias_release_s", FLOAT, 30.0, "an unseen satellite's range-bias slot (and bias state) "
+                 "may go to another satellite after this long; until then, and while no other needs it, it is kept"),
     )
     EXTRA_INPUTS = {"ephemeris": ("ephemeris_topic", "hyper_nav_msgs/msg/GnssEphemeris", True)}
 

@@ -13,8 +13,10 @@ average them away as if independent, which they are not: its covariance
 shrinks far below its error (seed 004 realistic world: position NEES ~500
 before these states). The state layout is static, so the block is a pool of
 slots; the ``gnss_raw`` source assigns a slot to each satellite it uses
-(the lowest free one, kept while the satellite is seen and for
-``range_bias_release_s`` after) and resets a slot when it changes hands
+(the lowest free one, else the slot of the satellite unseen longest once
+unseen for more than ``range_bias_release_s``; a satellite keeps its slot and
+bias state through a loss of lock until another takes it:
+``raw_to_pseudoranges.RangeBiasSlots``) and resets a slot when it changes hands
 (its row and column of P zeroed, variance sigma^2, nominal value 0:
 ``ErrorStateKF.apply_resets``). A satellite that finds no free slot has
 sigma^2 added to its measurement variance instead (white: counted).

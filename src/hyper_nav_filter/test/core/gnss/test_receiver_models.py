@@ -115,6 +115,10 @@ def test_error_model_weights():
 
 
 def test_range_bias_slots_keep_release_and_reset():
+    """A satellite keeps its slot (and bias state) through a loss of lock
+    until another satellite needs it; a newly used one takes a free slot, or
+    the slot of the satellite unseen longest once that one is unseen for
+    more than release_s (reset), or none (counted)."""
     s = RangeBiasSlots(3, release_s=10.0)
     slots, new = s.assign(["G01", "G02"], 0.0)
     assert slots.tolist() == [0, 1] and new == [0, 1]
@@ -122,9 +126,15 @@ def test_range_bias_slots_keep_release_and_reset():
     assert slots.tolist() == [1, 2] and new == [2]
     c = Counter()
     slots, new = s.assign(["G02", "G03", "G04"], 5.0, c)
-    assert slots.tolist() == [1, 2, -1] and new == [] and c["range_bias_pool_full"] == 1
-    slots, new = s.assign(["G04", "G01"], 20.0)         # G01 unseen 19 s > 10 s: released, then taken anew
-    assert sorted(slots.tolist()) == [0, 1] and len(new) == 2
+    assert slots.tolist() == [1, 2, -1] and new == [] and c["range_bias_pool_full"] == 1   # G01 unseen 4 s only
+    # G01 back after 19 s unseen: its own slot, not reset (a blackout's satellites keep their bias states);
+    # G04 takes the slot of G02 (last seen at 5 s, unseen 15 s > 10 s: the longest unseen with G03, lower slot)
+    slots, new = s.assign(["G04", "G01"], 20.0, c)
+    assert slots.tolist() == [1, 0] and new == [1] and c["range_bias_slot_taken_over"] == 1
+    slots, new = s.assign(["G02"], 21.0, c)            # G02 back: G03 (unseen 16 s) gives way
+    assert slots.tolist() == [2] and new == [2]
+    slots, new = s.assign(["G03", "G01", "G02", "G04"], 22.0, c)     # every slot in use: none for G03
+    assert slots.tolist() == [-1, 0, 2, 1] and new == [] and c["range_bias_pool_full"] == 2
 
 
 def test_apply_resets_restarts_a_state_and_keeps_snapshots():
