@@ -38,6 +38,7 @@ from hyper_nav_filter.output import OutputFrames, navstate_fields
 from . import geomag_conversions as conv
 from .core.geomag_aiding import GeomagAiding
 from .core.geomag_config import GeomagConfig
+from .core.mag_input import MagInputCheck
 from .core.map_epoch import check as check_map_epoch
 from .core.nav_reference import WAIT, NavReference
 
@@ -88,7 +89,7 @@ class GeomagFeed:
         self.counts: collections.Counter = collections.Counter()
         self.results: list = []                         # every MatchResult, in order
         self._waiting: collections.deque = collections.deque()
-        self._last_mag_t = -np.inf
+        self._mag_check = MagInputCheck()
         t_s, field_T = simulate.mag_stream(sc, traj)
         self.mag_t_s = np.asarray(t_s, float)
         self.mag_field_T = np.asarray(field_T, float)
@@ -105,13 +106,10 @@ class GeomagFeed:
         s = conv.mag_sample(message({"header.stamp.sec": sec, "header.stamp.nanosec": nsec,
                                      "magnetic_field.x": float(f[0]), "magnetic_field.y": float(f[1]),
                                      "magnetic_field.z": float(f[2])}))
-        if not (np.isfinite(s.t_s) and np.isfinite(s.total_nT)) or s.total_nT <= 0.0:
-            self.counts["rejected_mag_nan"] += 1
+        why = self._mag_check.reject(s)
+        if why is not None:
+            self.counts[why] += 1
             return
-        if s.t_s <= self._last_mag_t:
-            self.counts["rejected_mag_out_of_order"] += 1
-            return
-        self._last_mag_t = s.t_s
         self._waiting.append(s)
         self._pair(eng)
 

@@ -54,6 +54,7 @@ from hyper_nav_filter.ros_util import (all_matched, assign_fields, diagnostic_ar
 
 from .. import geomag_conversions as conv
 from ..core.geomag_aiding import GeomagAiding
+from ..core.mag_input import MagInputCheck
 from ..core.geomag_config import GeomagConfig
 from ..core.map_epoch import MEASUREMENT_EPOCH_FIELD, check as check_map_epoch
 from ..core.nav_reference import WAIT, NavReference
@@ -122,7 +123,7 @@ class GeomagNode(Node):
         self._inflight: dict[float, int] = {}       # stamps of samples not yet matched or dropped
         self.allowance = ClockAllowance(self, source=self._allowance)
         self._nav = NavReference(self.cfg.max_nav_gap_s, self.cfg.max_nav_prediction_s, self.cfg.nav_reference_lag_s)
-        self._last_mag_t = -np.inf
+        self._mag_check = MagInputCheck()
         self._jobs: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._work, name="geomag_matcher", daemon=True)
@@ -158,13 +159,10 @@ class GeomagNode(Node):
     def _on_mag(self, msg):
         self.counts["received imu/mag"] += 1
         s = conv.mag_sample(msg)
-        if not (np.isfinite(s.t_s) and np.isfinite(s.total_nT)) or s.total_nT <= 0.0:
-            self.counts["rejected_mag_nan"] += 1
+        why = self._mag_check.reject(s)
+        if why is not None:
+            self.counts[why] += 1
             return
-        if s.t_s <= self._last_mag_t:
-            self.counts["rejected_mag_out_of_order"] += 1
-            return
-        self._last_mag_t = s.t_s
         with self._lock:
             self._inflight[s.t_s] = self._inflight.get(s.t_s, 0) + 1
         self._mag.append(s)

@@ -83,11 +83,15 @@ class SourceType:
     def on_message(self, role: str, msg, engine) -> str | None:
         """Feed one message to the engine; returns the reason when it is
         rejected (counted, never raised)."""
-        self.counters[f"received {role}"] += 1
         try:
             reason = self.convert(role, msg, engine)
         except (ValueError, TypeError, KeyError, AttributeError) as exc:
             reason = f"malformed: {exc}"
+        return self._count(role, reason)
+
+    def _count(self, role: str, reason: str | None) -> str | None:
+        """One message of ``role`` received, processed (reason None) or rejected for ``reason``."""
+        self.counters[f"received {role}"] += 1
         if reason is None:
             self.counters[f"processed {role}"] += 1
         else:
@@ -111,14 +115,7 @@ class SourceType:
     def on_prepared(self, role: str, item, engine) -> str | None:
         """``on_message`` for an item of ``prepare_rows``: the same counters
         and the same engine call as the message would get."""
-        self.counters[f"received {role}"] += 1
-        reason = item if type(item) is str else self._queued(engine.add_measurement(item))
-        if reason is None:
-            self.counters[f"processed {role}"] += 1
-        else:
-            self.counters[f"rejected {role}"] += 1
-            self.counters[f"rejected {role}: {reason.split(':')[0]}"] += 1
-        return reason
+        return self._count(role, item if type(item) is str else self._queued(engine.add_measurement(item)))
 
     @staticmethod
     def _queued(result) -> str | None:
