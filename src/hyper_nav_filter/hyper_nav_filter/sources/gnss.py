@@ -147,7 +147,7 @@ class GnssRawSource(SourceType):
             except ConfigError as exc:
                 raise ConfigError(f"filter.sources.{self.id}.{exc}") from None
         self.tight = TightGnssInput(corr, p["use_rates"], p["ephemeris_wait_s"], receiver, p["per_satellite"],
-                                    p["range_bias_release_s"])
+                                    p["range_bias_release_s"], slot_owner=f"{self.id}:")
 
     def check(self, cfg) -> None:
         if cfg is not None and not cfg.layout.has("clk"):

@@ -416,6 +416,20 @@ class RangeBiasSlots:
         return np.asarray(slots, int), resets
 
 
+def shared_range_bias_slots(engine, n_slots: int, release_s: float) -> RangeBiasSlots:
+    """The one slot pool of an engine's range-bias block, shared by every
+    source feeding it (two pools over one block would hand the same slot to
+    two satellites and reset each other's states: seen with the real and the
+    virtual pseudorange sources of seed 004); created by the first source
+    that feeds the engine, with its ``release_s``. The sources keep their
+    satellites apart by name (``TightGnssInput.slot_owner``)."""
+    pool = getattr(engine, "range_bias_slots", None)
+    if pool is None:
+        pool = RangeBiasSlots(n_slots, release_s)
+        engine.range_bias_slots = pool
+    return pool
+
+
 def _isb_cols(systems) -> np.ndarray:
     from ..blocks.range_bias import InterSystemBias
     order = InterSystemBias.SYSTEMS
@@ -560,8 +574,9 @@ class TightGnssInput:
 
     def __init__(self, corrections: ReceiverCorrections | None = None, use_rates: bool = False,
                  hold_s: float = 0.5, receiver=None, per_satellite: bool = False,
-                 range_bias_release_s: float = 30.0, absent_retry_s: float = 30.0):
+                 range_bias_release_s: float = 30.0, absent_retry_s: float = 30.0, slot_owner: str = ""):
         self.corrections = corrections if corrections is not None else ReceiverCorrections()
+        self.slot_owner = str(slot_owner)          # prefix of its satellites' names in the range-bias pool
         self.absent_retry_s = float(absent_retry_s)
         self._absent: dict[tuple, float] = {}      # (system, prn) -> epoch whose hold ran out without its record
         self._version = 0                          # bumped when a record comes or a satellite is given up
@@ -674,7 +689,7 @@ class TightGnssInput:
             from ..blocks import REGISTRY
             if self._slots is None:
                 self._slots = RangeBiasSlots(REGISTRY[block].size, self.range_bias_release_s)
-            sat_ids = [f"{s}{int(p):02d}" for s, p in zip(systems, (raw.prn[k] for k in idx) if obs is None
+            sat_ids = [f"{self.slot_owner}{s}{int(p):02d}" for s, p in zip(systems, (raw.prn[k] for k in idx) if obs is None
                                                         else (c.prn for c in obs.choices))]
             slots, new = self._slots.assign(sat_ids, float(raw.t_s), self.counters)
             sigma = float(cfg.range_bias_sigma_m)
@@ -701,8 +716,14 @@ class TightGnssInput:
         """Queue the measurements of the ready epochs (at the engine's filter
         time) in ``engine`` (a FusionEngine). Returns how many were added."""
         n = 0
+        cfg = getattr(engine, "cfg", None)
+        if self._slots is None and cfg is not None:
+            block = next((b for b in ("rb", "rb32") if cfg.layout.has(b)), "")
+            if block:
+                from ..blocks import REGISTRY
+                self._slots = shared_range_bias_slots(engine, REGISTRY[block].size, self.range_bias_release_s)
         for raw in self.ready(engine.t_latest_s):
-            for m in self.measurements(raw, getattr(engine, "cfg", None)):
+            for m in self.measurements(raw, cfg):
                 ok, _ = engine.add_measurement(m)
                 n += int(ok)
         return n

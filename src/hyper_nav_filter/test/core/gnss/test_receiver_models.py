@@ -170,3 +170,26 @@ def test_gnss_raw_source_signal_plan_errors_name_the_field():
     src = [s for s in make_sources(parse_sources({**table, "g": {**table["g"], "signals": ["G:1C+2W,1C", "E:1X"]}}),
                                    cfg) if s.TYPE == "gnss_raw"][0]
     assert src.tight.receiver.plan == {"G": (("1C", "2W"), ("1C",)), "E": (("1X",),)}
+
+
+def test_sources_feeding_one_engine_share_its_range_bias_pool():
+    """Two gnss_raw sources (the real receiver's and the virtual pseudoranges')
+    on one engine draw from one pool of the range-bias block: the same
+    satellite of the two sources gets two slots, never one slot twice."""
+    from types import SimpleNamespace
+    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import shared_range_bias_slots
+    from hyper_nav_filter.sources import make_sources, parse_sources
+    eng = SimpleNamespace()
+    pool = shared_range_bias_slots(eng, 4, 30.0)
+    assert shared_range_bias_slots(eng, 16, 1.0) is pool and pool.n == 4 and pool.release_s == 30.0
+    assert shared_range_bias_slots(SimpleNamespace(), 4, 30.0) is not pool
+    real, _ = pool.assign(["gnss_raw:G05", "gnss_raw:G07"], 0.0)
+    virt, _ = pool.assign(["gnss_virtual:G05"], 0.0)
+    assert sorted(real.tolist() + virt.tolist()) == [0, 1, 2]
+    specs = parse_sources({"imu": {"type": "imu", "topic": "imu/data_raw"},
+                           "gnss_raw": {"type": "gnss_raw", "topic": "gnss/raw"},
+                           "gnss_virtual": {"type": "gnss_raw", "topic": "gnss/virtual", "channels": "virtual"}})
+    from hyper_nav_filter.core.config import FilterConfig
+    cfg = FilterConfig.from_dict({"state_blocks": ["att", "vel", "pos", "bg", "ba", "clk", "rb"]})
+    owners = [s.tight.slot_owner for s in make_sources(specs, cfg) if s.spec.type == "gnss_raw"]
+    assert owners == ["gnss_raw:", "gnss_virtual:"]
