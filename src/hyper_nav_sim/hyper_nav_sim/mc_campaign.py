@@ -193,6 +193,11 @@ def main(argv=None) -> int:
         print(f"{b:6s} {m['rms_3d']:10.4g} {m['mean_anees']:11.2f} {100 * m['share_in_band']:11.0f}%   [{unit}]")
     for kind, v in s["anis"].items():
         print(f"ANIS {kind}: mean {np.nanmean(v):.2f} (dof {s['anis_band'][kind]['dof']})")
+    kinds = sorted({k for r in result["per_run"] for k in r["accepted"]})
+    if kinds:
+        print("updates accepted / gated per run (mean): " + ", ".join(
+            f"{k} {np.mean([r['accepted'].get(k, 0) for r in result['per_run']]):.1f} / "
+            f"{np.mean([r['gated'].get(k, 0) for r in result['per_run']]):.1f}" for k in kinds))
     paper = beside_paper(result["per_run"], sc)
     if paper:
         print(paper)

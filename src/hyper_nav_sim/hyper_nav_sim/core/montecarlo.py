@@ -161,6 +161,8 @@ def run_metrics(r: dict, skip_s: float) -> dict:
         out[f"{b}_max_axis"] = float(np.max(np.abs(r["err"][b][m])) * scale) if len(e) else math.nan
         out[f"{b}_mean_nees"] = float(np.mean(r["nees"][b][m])) if len(e) else math.nan
     out["gated"] = r["gated"]
+    out["accepted"] = r.get("accepted", {})
+    out["aiding"] = r.get("aiding", [])           # the aiding nodes' counters (e.g. geomag fixes published)
     return out
 
 
