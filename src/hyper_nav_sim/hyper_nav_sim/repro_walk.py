@@ -20,6 +20,10 @@ and the count of epochs inside its 95 % interval. GNSS outages cut into the
 data (15 s and 30 s at three places, one run each): horizontal error at the
 outage end and the fraction of RTK epochs inside the outage where both
 horizontal errors lie within the filter's 3 sigma.
+The tightly coupled filter runs twice: as the import file sets it up
+(``tc``) and with per-satellite range-bias states (``tc_rb``,
+``RANGE_BIAS_VARIANT``: the time-correlated part of the pseudorange errors
+as states; a consistent covariance at some cost in accuracy).
 Writes ``walk.json``, ``errors.png`` (TC E/N/U error against RTK with
 +/-3 sigma) and ``track.png``; prints the table. Exit 0, 2 on bad input.
 """
@@ -41,6 +45,14 @@ from hyper_nav_filter.core.params import ConfigError
 # outage starts (s after the alignment epoch) per length: the RTK-fixed epochs end 75 s after the alignment,
 # so the three 30 s outages overlap (each is its own run)
 OUTAGES_S = {15.0: (10.0, 30.0, 55.0), 30.0: (5.0, 25.0, 45.0)}
+# ``tc_rb``: the tightly coupled filter of the import file with per-satellite range-bias states
+# (``core.blocks.range_bias``, 32 slots for three constellations): the part of each pseudorange error that is
+# correlated over tens of seconds (backyard multipath, residual ionosphere and orbits; our single-point errors
+# are correlated over 9-22 s, docs/walk_imu.md) as a Gauss-Markov state instead of white noise. Sigma 1 m,
+# tau 60 s (the first values tried, in a previous session); measured with 1 m / 300 s: NEES 2.61, 0.7 m /
+# 300 s: 3.59, 1 m / 300 s with sigma_scale 1.5: 2.39 (docs/walk_imu.md)
+RANGE_BIAS_VARIANT = {"add_block": "rb32", "range_bias_sigma_m": 1.0, "range_bias_tau_s": 60.0}
+MODES = ("tc", "tc_rb", "lc")
 
 
 def walk_yaml() -> pathlib.Path:
@@ -203,6 +215,8 @@ def reproduce(out: pathlib.Path, data_dir=None, end_s=None, outages=True, plots=
     fixes = gnss_raw.spp_fixes(imported["gnss_raw"], None, t_end)
     lc_cfg = type(cfg).from_dict({**{k: v for k, v in cfg.as_dict().items()},
                                   "state_blocks": ["att", "vel", "pos", "bg", "ba"]})
+    rb = dict(RANGE_BIAS_VARIANT)
+    rb_cfg = type(cfg).from_dict({**cfg.as_dict(), "state_blocks": list(cfg.state_blocks) + [rb.pop("add_block")], **rb})
     lc_sources = dict(DEFAULT_TABLE)
     # the fixes come from the same pseudoranges and Dopplers: the same scale as the tightly coupled source's
     # (measured with 1: the gate refuses the Doppler velocity in the turns from 28 s to 45 s, 2.70 m H RMS)
@@ -215,10 +229,11 @@ def reproduce(out: pathlib.Path, data_dir=None, end_s=None, outages=True, plots=
 
     def one(mode, outage=None):
         t0 = time.perf_counter()
-        if mode == "tc":
+        if mode in ("tc", "tc_rb"):
             recs = [r for r in records if not (outage and r[0] == "/gnss/raw" and _in(_stamp(r[1]), outage))]
-            sols, eng = run(recs, cfg, init, setup.sources)
-            layout = cfg.layout
+            c = cfg if mode == "tc" else rb_cfg
+            sols, eng = run(recs, c, init, setup.sources)
+            layout = c.layout
         else:
             sols, eng = run(lc_records(imu_records, fixes, outage, lc_scale), lc_cfg, init, lc_sources)
             layout = lc_cfg.layout
@@ -240,7 +255,8 @@ def reproduce(out: pathlib.Path, data_dir=None, end_s=None, outages=True, plots=
     res["datum_offset_sigma_enu_m"] = off_sigma.tolist()
     res["runs"]["spp"] = {**summary(e_spp - offset), "raw": summary(e_spp)}
     series = {}
-    for mode in ("tc", "lc"):
+    res["range_bias_variant"] = RANGE_BIAS_VARIANT
+    for mode in MODES:
         t, e, P, sols, wall, ctr = one(mode)
         series[mode] = (t, e - offset, P, sols)
         res["runs"][mode] = {**summary(e - offset, P), "raw": summary(e, P),
@@ -253,7 +269,7 @@ def reproduce(out: pathlib.Path, data_dir=None, end_s=None, outages=True, plots=
                 if o[1] > t_end:
                     continue
                 row = {"start_s_after_alignment": s0, "length_s": L}
-                for mode in ("tc", "lc"):
+                for mode in MODES:
                     t, e, P, *_ = one(mode, o)
                     row[mode] = outage_score(t, e - offset, P, o)
                 res["outages"].append(row)
@@ -277,6 +293,12 @@ def _plots(out, series, ref, fixes, al, offset):
         axs[i].plot(t - al.t_s, -s, "k--", lw=0.8)
         tl, el, *_ = series["lc"]
         axs[i].plot(tl - al.t_s, el[:, i], ".", ms=2, alpha=0.5, label="loosely coupled (SPP) - RTK")
+        if "tc_rb" in series:
+            tr, er, Pr, _ = series["tc_rb"]
+            sr = 3 * np.sqrt(Pr[:, i, i])
+            axs[i].plot(tr - al.t_s, er[:, i], ".", ms=2, alpha=0.6, label="tightly coupled + range-bias states - RTK")
+            axs[i].plot(tr - al.t_s, sr, ":", color="tab:green", lw=0.8, label="+/-3 sigma (range-bias states)")
+            axs[i].plot(tr - al.t_s, -sr, ":", color="tab:green", lw=0.8)
         axs[i].set_ylabel(f"{name} error (m)")
         axs[i].grid(alpha=0.3)
     axs[0].legend(fontsize=8)
@@ -290,11 +312,12 @@ def _plots(out, series, ref, fixes, al, offset):
     lat0, lon0, alt0 = ref[1][0], ref[2][0], ref[3][0]
     pr = earth.enu_offset_m(lat0, lon0, alt0, ref[1], ref[2], ref[3])
     ax.plot(pr[:, 0], pr[:, 1], "k.", ms=4, label="RTK fixed")
-    for mode in ("tc", "lc"):
+    names = {"tc": "tightly coupled", "tc_rb": "tightly coupled + range-bias states", "lc": "loosely coupled (SPP)"}
+    for mode in (m for m in MODES if m in series):
         st = [s.state for s in series[mode][3]]
         p = earth.enu_offset_m(lat0, lon0, alt0, np.array([x.lat_rad for x in st]),
                                np.array([x.lon_rad for x in st]), np.array([x.alt_m for x in st])) - offset
-        ax.plot(p[:, 0], p[:, 1], "-", lw=1, label={"tc": "tightly coupled", "lc": "loosely coupled (SPP)"}[mode])
+        ax.plot(p[:, 0], p[:, 1], "-", lw=1, label=names[mode])
     ps = earth.enu_offset_m(lat0, lon0, alt0, fixes.lat_rad, fixes.lon_rad, fixes.alt_m) - offset
     ax.plot(ps[:, 0], ps[:, 1], "x", ms=3, alpha=0.5, label="single point")
     ax.set_aspect("equal")
@@ -319,18 +342,20 @@ def print_table(res: dict) -> None:
     if "datum_offset_sigma_enu_m" in res:
         print(f"datum offset 1-sigma {', '.join(f'{x:.2f}' for x in res['datum_offset_sigma_enu_m'])} m E/N/U; NEES "
               "with it added to P: " + ", ".join(f"{m} {res['runs'][m]['with_datum_offset_sigma']['nees_mean']:.2f}"
-                                                 for m in ("tc", "lc")))
-    for mode in ("tc", "lc", "spp"):
+                                                 for m in MODES if m in res["runs"]))
+    for mode in (*MODES, "spp"):
+        if mode not in res["runs"]:
+            continue
         r = res["runs"][mode]
         nees = f"{r['nees_mean']:8.2f}{r['nees_epochs_inside_95']:5d}/{r['n']:<3d}" if "nees_mean" in r else " " * 17
         rt = f"{r['real_time_factor']:7.1f}" if "real_time_factor" in r else ""
         print(f"{mode:8s}{r['horizontal_rms_m']:9.3f}{r['horizontal_p95_m']:9.3f}{r['vertical_rms_m']:9.3f}{nees}{rt}")
     for o in res["outages"]:
-        if not all(o[m]["n"] for m in ("tc", "lc")):
+        if not all(o[m]["n"] for m in MODES if m in o):
             continue
         print(f"outage {o['length_s']:.0f} s at +{o['start_s_after_alignment']:.0f} s: " + "; ".join(
             f"{m} end error {o[m]['end_horizontal_error_m']:.2f} m (3 sigma {o[m]['end_horizontal_3sigma_m']:.2f} m), "
-            f"inside 3 sigma {100 * o[m]['inside_3sigma']:.0f} % of {o[m]['n']}" for m in ("tc", "lc") if o[m]["n"]))
+            f"inside 3 sigma {100 * o[m]['inside_3sigma']:.0f} % of {o[m]['n']}" for m in MODES if m in o and o[m]["n"]))
     print(f"wall {res['wall_s']:.1f} s")
 
 
