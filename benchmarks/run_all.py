@@ -213,6 +213,9 @@ def main(argv=None) -> int:
     print(f"== offline replay of a {rep['sim_s']:.0f} s default bag: arrays {a['wall_s']:.2f} s "
           f"(reading {a['read_s']:.2f} s), {a['rtf']:.0f}x real time; per-message {m['wall_s']:.2f} s "
           f"(reading {m['read_s']:.2f} s), {m['rtf']:.0f}x; ratio {rep['ratio']:.1f}; {a['solutions']} solutions ==")
+    import walk_replay
+    out["walk_replay"] = walk_replay.run(2 if args.quick else 3)
+    print(walk_replay.report_line(out["walk_replay"]))
     if not args.no_user_path:
         import user_path
         engine_us = next(c["fast_us"] for lab, c in out["configs"].items() if lab.startswith("ENU 21, 200 Hz"))
