@@ -146,6 +146,20 @@ def dll_thermal_sigma_chips(cn0_dbhz, bn_hz, t_coh_s, d_chips):
     return np.sqrt(bn * d / (2.0 * c) * (1.0 + 2.0 / (t * c * (2.0 - d))))
 
 
+def epoch_correlation_factor(bn_hz, epoch_interval_s):
+    """How much a first-order loop's error sigma must grow for a filter that
+    takes its samples every ``epoch_interval_s`` as independent:
+    sqrt((1 + rho) / (1 - rho)), rho = exp(-4 B_n dt) the correlation of the
+    loop error (time constant 1 / (4 B_n)) between two epochs. A Gauss-Markov
+    error sampled at that interval carries, over many samples, the
+    information of white samples of this larger sigma (the variance of their
+    mean is sigma^2 (1 + rho) / (1 - rho) / N). The aided DLL (0.1 Hz) at
+    1 Hz epochs: rho 0.67, factor 2.25 (its simulated code error's lag-1
+    correlation measured 0.69, tested)."""
+    rho = np.exp(-4.0 * _pos("bn_hz", bn_hz) * _pos("epoch_interval_s", epoch_interval_s))
+    return np.sqrt((1.0 + rho) / (1.0 - rho))
+
+
 # ---- loop parameters and state layout (defined once, by name) --------------------------------------
 
 @dataclass

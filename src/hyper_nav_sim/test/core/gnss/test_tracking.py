@@ -52,6 +52,26 @@ def test_static_receiver_jitter_matches_closed_form(cfg, cn0):
     assert np.median(out.cn0_est_dbhz[-1]) == pytest.approx(cn0, abs=0.5)
 
 
+def test_code_error_correlation_between_epochs_is_the_first_order_loops():
+    """The aided DLL (0.1 Hz) at constant C/N0: the simulated code error's
+    correlation over 1 s is exp(-4 B_n 1 s) = 0.67 within 0.08 (12 channels x
+    60 s, seeded), so the receiver's reported sigma grows by
+    tracking.epoch_correlation_factor (2.25) for 1 Hz epochs; the factor by
+    its formula, and 1 for a wide loop."""
+    cfg = LoopConfig.aided_default()
+    n_ch, n = 12, 60000
+    bank = ChannelBank(cfg, n_ch, 0.0)
+    out = bank.run(np.zeros((n, n_ch)), np.full((n, n_ch), 40.0), np.random.default_rng(5))
+    e = out.code_err_chips[5000:]
+    lag = 1000                                               # 1 s of 1 ms steps
+    rho = np.sum(e[:-lag] * e[lag:]) / np.sum(e * e) * len(e) / (len(e) - lag)
+    assert rho == pytest.approx(np.exp(-4.0 * cfg.bn_dll_hz), abs=0.08)
+    r = np.exp(-0.4)
+    assert tr.epoch_correlation_factor(0.1, 1.0) == pytest.approx(np.sqrt((1 + r) / (1 - r)), rel=1e-12)
+    assert tr.epoch_correlation_factor(0.1, 1.0) == pytest.approx(2.25, abs=0.01)
+    assert tr.epoch_correlation_factor(5.0, 1.0) == pytest.approx(1.0, abs=1e-8)
+
+
 def _jerk_doppler_hz(jerk_mps3, n_ms, t_on=1.0, t_off=3.0):
     t = np.arange(1, n_ms + 1) * 1e-3
     J = jerk_mps3 / LAMBDA_L1_M
