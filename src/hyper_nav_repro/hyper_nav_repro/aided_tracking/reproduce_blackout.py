@@ -122,8 +122,15 @@ def main(argv=None) -> int:
             if w.any():
                 d[f"anees_pos_{wname}"] = {"mean": float(anees[w].mean()),
                                            "share_in_band": float(np.mean((anees[w] >= band[0]) & (anees[w] <= band[1])))}
-        d["share_below_coasting"] = float(np.mean(hpos[c].mean(axis=0)[both] < hpos["coasting"].mean(axis=0)[both]))
+        excess = hpos[c].mean(axis=0)[both] - hpos["coasting"].mean(axis=0)[both]
+        d["share_below_coasting"] = float(np.mean(excess < 0.0))
+        # where the case is not below coasting: by how much at most (seed means) and when
+        k = int(np.argmax(excess))
+        d["max_excess_over_coasting_m"] = {"value": float(excess[k]), "t_s": float(t[both][k])}
         summary[c] = d
+    # the figure's curves on a 1 s grid: seed-mean horizontal error per case
+    grid = np.arange(np.ceil(t[0]), t[-1] + 1e-9, 1.0)
+    curves = {"t_s": grid.tolist(), **{c: np.interp(grid, t, hpos[c].mean(axis=0)).round(4).tolist() for c in CASES}}
     ha = summary["a"]["h_err_at_end_plus_5s_median_m"]
     for c in CASES:
         summary[c]["within_2x_a_at_end_plus_5s"] = summary[c]["h_err_at_end_plus_5s_median_m"] <= 2 * ha
@@ -143,6 +150,7 @@ def main(argv=None) -> int:
            "blackout": {"t_on_s": t_on, "ramp_s": ramp, "hold_s": hold, "depth_db": depth, "t_end_s": t_end},
            "cases": CASE_NAMES, "anees_band_95": band, "epoch_resolution_s": 1.0,
            "aided_threshold_dbhz": AIDED_RULE_DBHZ, "reacquisition": rq, "results": summary,
+           "h_error_mean_over_seeds_m": curves,
            "aiding_counters": aid_counts, "cpu_s": cpu}
     (out / "blackout_cases.json").write_text(json.dumps(doc, indent=1))
     pngs = plot(t, hpos, nees, band, runs, reacq, a, out, n)
@@ -155,7 +163,8 @@ def main(argv=None) -> int:
               f"{s.get('pos_h_m_during', {}).get('max', float('nan')):7.2f} m; after mean "
               f"{s.get('pos_h_m_after', {}).get('mean', float('nan')):7.2f} m; vel h during "
               f"{s.get('vel_h_mps_during', {}).get('mean', float('nan')):.3f} m/s; below coasting "
-              f"{100 * s['share_below_coasting']:.0f} % of epochs; ANEES during "
+              f"{100 * s['share_below_coasting']:.0f} % of epochs (at most {s['max_excess_over_coasting_m']['value']:+.3f} m "
+              f"above, at {s['max_excess_over_coasting_m']['t_s']:.0f} s); ANEES during "
               f"{s.get('anees_pos_during', {}).get('mean', float('nan')):.2f} "
               f"({100 * s.get('anees_pos_during', {}).get('share_in_band', float('nan')):.0f} % in band), after "
               f"{s.get('anees_pos_after', {}).get('mean', float('nan')):.2f} "
