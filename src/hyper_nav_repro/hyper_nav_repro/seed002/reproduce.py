@@ -90,20 +90,31 @@ def tracker_config_with(cfg, filter_type):
     return replace(cfg, filter_type=filter_type)
 
 
-def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, timing_steps: int = 300):
-    sc = load_scenario(SCENARIOS[num])
-    cfg = tracker_config(sc)
+def monte_carlo_inputs(sc, cfg, runs: int, duration_s: float | None = None, stream: int = 2002):
+    """The reproduction's Monte Carlo set-up of one scenario: the truth (t,
+    x, u over the first ``duration_s``), radar measurements Z (runs, n, 3)
+    and scaled initial estimates x0b (runs, 7). Run 0 is the scenario's own
+    radar stream and hand-over error; run i > 0 draws its radar noise and an
+    initial error ~ N(0, P0) from the generator [scenario seed, stream, i]."""
     track = scenario_track(sc)
     n = len(track.t_s) if duration_s is None else int(np.searchsorted(track.t_s, duration_s, side="right"))
-    t, x_true, u_true = track.t_s[:n], track.x[:n], track.u[:n]
     Z = np.empty((runs, n, 3))
     x0 = cfg.initial_estimate(initial_truth(sc))      # at t = 0, one radar interval before the first epoch
     x0b = np.repeat(gm.to_scaled(x0)[None], runs, 0)
     for i in range(runs):
-        rng = sc.rng("radar") if i == 0 else np.random.default_rng([sc["seed"], 2002, i])
+        rng = sc.rng("radar") if i == 0 else np.random.default_rng([sc["seed"], stream, i])
         Z[i] = radar_measurements(sc, rng)[:n]
         if i > 0:       # hand-over error drawn from P0 (the PCRB's prior), chi = 0
             x0b[i, :6] = gm.to_scaled(initial_truth(sc))[:6] + rng.standard_normal(6) * np.sqrt(np.diag(cfg.P0))[:6]
+    return track.t_s[:n], track.x[:n], track.u[:n], Z, x0b
+
+
+def run_scenario(num: int, runs: int, lekf, duration_s: float | None = None, timing_steps: int = 300):
+    sc = load_scenario(SCENARIOS[num])
+    cfg = tracker_config(sc)
+    t, x_true, u_true, Z, x0b = monte_carlo_inputs(sc, cfg, runs, duration_s)
+    n = len(t)
+    x0 = cfg.initial_estimate(initial_truth(sc))
     P0b = np.repeat(cfg.P0[None], runs, 0)
     Zs = np.swapaxes(gm.measurement_to_scaled(Z), 0, 1)
     DT = np.broadcast_to(np.diff(t, prepend=0.0)[:, None], (n, runs))

@@ -107,7 +107,7 @@ def test_augmented_ekf_is_consistent_on_a_non_maneuvering_glide(seed):
 
 
 @pytest.mark.xfail(strict=False, reason="issue 24: the two-mode AUG-IMM is conservative on a glide (measured NEES "
-                                        "3.76 / 3.81 / 4.44, v 253-275 m/s): its mode probabilities stay near "
+                                        "3.77 / 3.82 / 4.34, v 243-260 m/s): its mode probabilities stay near "
                                         "50/50 (one-step innovations at 64 km of radar noise hardly tell the modes "
                                         "apart) and the maneuver mode's estimates widen the mixture")
 @pytest.mark.parametrize("seed", [11, 12, 13])
@@ -115,6 +115,37 @@ def test_augmented_imm_is_consistent_on_a_non_maneuvering_glide(seed):
     nees, rms, (lo, hi) = _augmented_glide_nees("AUG-IMM", seed)
     assert lo < nees.mean() < hi, (lo, nees.mean(), hi)
     assert rms[3] < 120.0, rms
+
+
+# NEES of the AUG-IMM on the reproduction's runs (20, generator stream 2002) and on a
+# draw the scenario's densities were not chosen on (stream 2302), measured:
+# S1 4.66 / 4.92, S2 5.09 / 5.06, S3 5.27 / 5.45, weave 5.07 / 5.19, reversal 6.77 / 6.92
+@pytest.mark.parametrize("stream", [2002, 2302])
+@pytest.mark.parametrize("num", [1, 2, 3, 4, 5])
+def test_augmented_imm_nees_in_band_on_the_reproduction_scenarios(num, stream):
+    """Issue 24's goal: the AUG-IMM (the scenario's tracker_augmented block)
+    over 20 Monte Carlo runs of radar noise and hand-over error on the
+    simulated world's flight (the paper's three scenarios and the two unseen
+    maneuvers): 20 * NEES ~ chi2(120) per epoch, the mean over the epochs
+    after 30 s inside the 95 % band [4.58, 7.61], and RMSE h, v within 1.5x
+    of the unknown-maneuver PCRB's figures in results/seed002 (S1 501 m /
+    294 m/s ... reversal 566 m / 275 m/s)."""
+    from hyper_nav_filter.core.tracking import augmented as au
+    from hyper_nav_sim.core.scenario import load_scenario
+    from hyper_nav_sim.core.tracking_setup import tracker_config
+    sc = load_scenario(repro_seed002.SCENARIOS[num])
+    cfg = tracker_config(sc)
+    t, x_true, _, Z, x0b = repro_seed002.monte_carlo_inputs(sc, cfg, 20, stream=stream)
+    setup = au.AugmentedSetup.from_dict(sc.data["tracker_augmented"])
+    xa, Pa, _ = au.aug_filter_run(cfg.model, setup.filter_config("AUG-IMM"), gm.to_physical(x0b), cfg.P0, cfg.R,
+                                  np.swapaxes(gm.measurement_to_scaled(Z), 0, 1), np.diff(t, prepend=0.0))
+    e = repro_seed002.state_errors(np.swapaxes(xa, 0, 1), x_true[None])
+    res = repro_seed002.nees_summary(e, np.swapaxes(Pa, 0, 1), t)
+    lo, hi = res["nees_band"]
+    assert lo < res["nees_mean"] < hi, (num, stream, res["nees_mean"], lo, hi)
+    rmse = np.sqrt(np.mean(e**2, axis=1)).mean(0)
+    bound_h_v = {1: (501.4, 294.0), 2: (614.2, 376.5), 3: (577.7, 369.5), 4: (587.7, 395.0), 5: (565.6, 274.5)}[num]
+    assert rmse[0] < 1.5 * bound_h_v[0] and rmse[3] < 1.5 * bound_h_v[1], (num, rmse)
 
 
 def test_scenario_q_makes_the_ekf_conservative_on_a_glide():
@@ -209,8 +240,9 @@ def test_reproduction_short_mode_runs(tmp_path):
     assert res["filters"]["AUG-IMM"]["data"].startswith("simulated world")
     assert res["perfect_model"]["data"].startswith("perfect model")
     # 200 s of scenario 1 (no maneuver yet): every filter tracks within 3 km / 100 m/s, but the
-    # AUG-IMM within 150 m/s (measured 120 m/s: its maneuver mode keeps ~half the probability
-    # on a glide, docs/tracking.md; the others 73-95 m/s)
+    # AUG-IMM within 200 m/s (measured 171 m/s, 3 runs: its maneuver mode keeps a large share of
+    # the probability on a glide and its drag walk of 1.6/sqrt(s) widens v, docs/tracking.md;
+    # the others 73-95 m/s)
     for ft in repro_seed002.ALL_FILTERS:
         r = res["filters"][ft]["rmse_mean"]
-        assert r[0] < 3000.0 and r[3] < (150.0 if ft == "AUG-IMM" else 100.0), (ft, r)
+        assert r[0] < 3000.0 and r[3] < (200.0 if ft == "AUG-IMM" else 100.0), (ft, r)
