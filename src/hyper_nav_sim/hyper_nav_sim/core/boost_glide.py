@@ -68,7 +68,9 @@ k_h (h_ref - h)/V clipped to +-gamma_limit, where h_ref is either the
 quasi-equilibrium glide altitude of seed 002 eq. 13 for the nominal
 c_l program (rho(h_ref) = 2 m g_eff / (V^2 S C_L* c_l_nom), altitude_mode
 "equilibrium_glide") or the start altitude (altitude_mode "hold"), plus the
-climb programs. Dive maneuvers override gamma_cmd. Thrust (boost motor, or
+climb programs. Dive maneuvers override gamma_cmd; pull-up maneuvers add
+their load (load_g over a window with ramps ramp_s) to n_vert, a commanded
+pull the flight-path loop then brings back. Thrust (boost motor, or
 the speed-hold engine of accelerate/cruise programs) acts along the body x
 axis.
 
@@ -101,7 +103,7 @@ G0 = earth.G0_MPS2
 _UP = np.array([0.0, 0.0, 1.0])
 
 LATERAL_TYPES = ("lateral_ca", "square_wave", "evasive", "s_turn", "turn_left", "turn_right")
-LONGITUDINAL_TYPES = ("climb", "dive", "glide", "accelerate", "cruise")
+LONGITUDINAL_TYPES = ("climb", "dive", "glide", "accelerate", "cruise", "pull_up")
 MANEUVER_TYPES = LATERAL_TYPES + LONGITUDINAL_TYPES
 
 
@@ -230,6 +232,14 @@ class DynamicTrajectory:
                 n = n + m.load_g * w * np.sin(2.0 * np.pi * (t - m.t_start_s) / m.period_s)
         return n
 
+    def _pull_up_load_g(self, t):
+        """Vertical load added by ``pull_up`` programs (g, positive up the lift)."""
+        n = np.zeros_like(t)
+        for m in self.maneuvers:
+            if m.type == "pull_up":
+                n = n + m.load_g * _window(t, m.t_start_s, m.t_end_s, m.ramp_s)
+        return n
+
     def _longitudinal(self, t):
         """(delta_h_ref, dive weight, dive gamma, engine weight, V_ref, V_ref_dot)."""
         dh = np.zeros_like(t)
@@ -332,6 +342,7 @@ class DynamicTrajectory:
         gam_cmd = np.clip(gd.k_h_per_s * (h_ref - alt) / V, -gd.gamma_limit_rad, gd.gamma_limit_rad)
         gam_cmd = (1.0 - w_dive) * gam_cmd + w_dive * g_dive
         n_vert = np.maximum((g_eff * cgam + V * gd.k_gamma_per_s * (gam_cmd - gam)) / G0, gd.n_vert_min_g)
+        n_vert = n_vert + self._pull_up_load_g(t)
         # thrust: boost motor + speed-hold engine along body x
         T_e = m * (v_ref_dot + gd.k_speed_per_s * (v_ref - V)) + D + m * g * sgam
         T_e = w_eng * np.clip(T_e / ca, 0.0, veh.engine_thrust_max_n)
@@ -443,7 +454,7 @@ class DynamicTrajectory:
         # longitudinal programs and guidance
         dh = w_dive = g_dive = w_eng = v_ref_dot = 0.0
         v_ref = st.speed_mps
-        n_lat = 0.0
+        n_lat = n_pull = 0.0
         for mv in self.maneuvers:
             T = mv.t_end_s - mv.t_start_s
             typ = mv.type
@@ -454,6 +465,8 @@ class DynamicTrajectory:
                 if wd > 0.0:
                     g_dive = mv.gamma_rad
                 w_dive = max(w_dive, wd)
+            elif typ == "pull_up":
+                n_pull += mv.load_g * _window1(t, mv.t_start_s, mv.t_end_s, mv.ramp_s)
             elif typ in ("accelerate", "cruise"):
                 w_eng = max(w_eng, _window1(t, mv.t_start_s, mv.t_end_s, mv.ramp_s))
                 if typ == "accelerate":
@@ -480,7 +493,7 @@ class DynamicTrajectory:
             h_ref = atmosphere.altitude_for_density_m_scalar(rho_ref) + dh
         gam_cmd = min(max(gd.k_h_per_s * (h_ref - alt) / V, -gd.gamma_limit_rad), gd.gamma_limit_rad)
         gam_cmd = (1.0 - w_dive) * gam_cmd + w_dive * g_dive
-        n_vert = max((g_eff * cgam + V * gd.k_gamma_per_s * (gam_cmd - gam)) / G0, gd.n_vert_min_g)
+        n_vert = max((g_eff * cgam + V * gd.k_gamma_per_s * (gam_cmd - gam)) / G0, gd.n_vert_min_g) + n_pull
         T_e = m * (v_ref_dot + gd.k_speed_per_s * (v_ref - V)) + D + m * g * sgam
         T_e = w_eng * min(max(T_e / ca, 0.0), veh.engine_thrust_max_n)
         T_tot = T_b + T_e

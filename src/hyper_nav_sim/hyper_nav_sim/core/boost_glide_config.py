@@ -32,6 +32,7 @@ Fields (units in the names; angles in degrees)::
         turn_left / turn_right  load_g (> 0), ramp_s 5
         climb       delta_alt_m (reference altitude change over the window)
         dive        gamma_deg (< 0), ramp_s 10             flight-path angle override
+        pull_up     load_g (> 0), ramp_s 1                 vertical load added to the guidance's
         glide       (no parameters: equilibrium glide, the default mode; for timetables)
         accelerate  delta_speed_mps, ramp_s 5              speed-hold engine, speed ramps
         cruise      ramp_s 5                               speed-hold engine at the reference
@@ -155,6 +156,7 @@ _MAN_DEFAULTS = {  # type -> allowed parameter defaults
     "turn_right": {"load_g": _MISSING, "ramp_s": 5.0},
     "climb": {"delta_alt_m": _MISSING, "ramp_s": 5.0},
     "dive": {"gamma_deg": _MISSING, "ramp_s": 10.0},
+    "pull_up": {"load_g": _MISSING, "ramp_s": 1.0},
     "glide": {"ramp_s": 5.0},
     "accelerate": {"delta_speed_mps": _MISSING, "ramp_s": 5.0},
     "cruise": {"ramp_s": 5.0},
@@ -256,7 +258,7 @@ def parse_flight(d: dict) -> dict:
             raise ValueError(f"{pm}period_s: must be > 0")
         if kw.get("ramp_s", 1.0) <= 0:
             raise ValueError(f"{pm}ramp_s: must be > 0")
-        if typ in ("turn_left", "turn_right") and kw["load_g"] <= 0:
+        if typ in ("turn_left", "turn_right", "pull_up") and kw["load_g"] <= 0:
             raise ValueError(f"{pm}load_g: must be > 0 (the direction is in the type)")
         if typ == "dive" and kw["gamma_deg"] >= 0:
             raise ValueError(f"{pm}gamma_deg: a dive needs a negative flight-path angle")

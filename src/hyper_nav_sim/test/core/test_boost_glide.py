@@ -130,9 +130,39 @@ def test_seed002_rates_match_finite_differences(s1, t):
     fd_check(s1, t)
 
 
-def test_scalar_and_vectorised_dynamics_agree(s1, launch, s003):
+@pytest.fixture(scope="module")
+def pull_up():
+    """Seed 002 scenario 1's glide with a 1.5 g pull-up over 300-306 s (0.3 s ramps)."""
+    d = example_flight("seed002_s1")
+    d["maneuvers"] = [{"type": "pull_up", "t_start_s": 300.0, "t_end_s": 306.0, "load_g": 1.5, "ramp_s": 0.3}]
+    return DynamicTrajectory.from_config(d)
+
+
+def test_pull_up_adds_its_vertical_load(s1, pull_up):
+    """The commanded vertical load rises by load_g over the window; the
+    flown load follows within the lift's 1 s lag, and the flight before the
+    window is the glide's."""
+    before = np.arange(100.0, 299.0, 7.0)
+    np.testing.assert_allclose(pull_up.flight(before)["n_vert_g"], s1.flight(before)["n_vert_g"], atol=1e-9)
+    t = np.arange(301.0, 305.5, 0.5)
+    f, f0 = pull_up.flight(t), s1.flight(t)
+    assert np.all(f["n_vert_cmd_g"] - f0["n_vert_cmd_g"] > 1.3)
+    flown = f["n_vert_g"] - f0["n_vert_g"]
+    assert flown[-1] > 1.2 and np.all(flown > 0.0), flown
+    fd_check(pull_up, 300.2)
+    fd_check(pull_up, 306.1)
+
+
+def test_pull_up_load_must_be_positive():
+    d = example_flight("seed002_s1")
+    d["maneuvers"] = [{"type": "pull_up", "t_start_s": 300.0, "t_end_s": 306.0, "load_g": -1.0}]
+    with pytest.raises(ValueError, match=r"flight.maneuvers\[0\].load_g"):
+        DynamicTrajectory.from_config(d)
+
+
+def test_scalar_and_vectorised_dynamics_agree(s1, launch, s003, pull_up):
     rng = np.random.default_rng(0)
-    for traj in (s1, launch, s003):
+    for traj in (s1, launch, s003, pull_up):
         for t in rng.uniform(0.0, traj.duration_s, 20):
             y = traj.state([t])[:, 0]
             a, b = traj._rhs(t, y), traj._rhs_vectorised(t, y)
