@@ -44,15 +44,17 @@ def plasma(t_on, ramp_s, hold_s, depth_db):
             "att_db": [0.0, depth_db, depth_db, 0.0]}
 
 
-def prepare(seed, duration_s, blackout, world="realistic", filter_overrides=None):
-    """Scenario variants, truth, IMU and the precomputed receiver epochs of one seed."""
+def prepare(seed, duration_s, blackout, world="realistic", filter_overrides=None, flight_overrides=None):
+    """Scenario variants, truth, IMU and the precomputed receiver epochs of one
+    seed; ``flight_overrides``: scenario overrides of the flight (the pull-up
+    flight's maneuver and lift response, :func:`pullup_flight`)."""
     from hyper_nav_sim.core import simulate
     from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
     tmp = pathlib.Path(tempfile.mkdtemp(prefix="issue23_"))
     base = {"seed": int(seed), "world.model": world, "duration_s": float(duration_s),
             "gnss.raw.lock.outages": [], "gnss.raw.clock": OCXO, "filter.config.output_delay_s": 0.1,
             "filter.sources.gnss_raw.ephemeris_wait_s": 0.05, "filter.sources.gnss_virtual.ephemeris_wait_s": 0.05,
-            **(filter_overrides or {})}
+            **(filter_overrides or {}), **(flight_overrides or {})}
     sc = apply_overrides(load_scenario("seed004_virtual"), base, tmp)
     trk = {"max_channels": 12, "signal": {"plasma": plasma(*blackout)}}
     sc_un = apply_overrides(sc, {"gnss.raw.tracking": {**trk, "mode": "unaided"}}, tmp)
@@ -130,10 +132,22 @@ def fly_aided(p, max_age_s=2.0, accel_sigma_mps2=0.2):
     return res, epochs, dict(aid.counts, **run.trk.counts)
 
 
-def run_seed(seed, duration_s, blackout, cases=CASES, filter_overrides=None):
+def pullup_flight(t_start_s, load_g, ramp_s, length_s, lift_tau_s, lift_rate_per_s):
+    """Flight overrides of the pull-up flight: seed 004's vehicle with a lift
+    that answers in ``lift_tau_s`` (rate limit ``lift_rate_per_s`` of c_l per
+    second; the scenario's 1 s / 1 per s give jerks below 10 m/s^3) and a
+    ``pull_up`` of ``load_g`` over ``length_s`` from ``t_start_s`` with
+    ``ramp_s`` ramps (boost_glide)."""
+    return {"flight.c_l_time_constant_s": float(lift_tau_s), "flight.c_l_rate_max_per_s": float(lift_rate_per_s),
+            "flight.maneuvers": [{"type": "pull_up", "t_start_s": float(t_start_s),
+                                  "t_end_s": float(t_start_s + length_s), "load_g": float(load_g),
+                                  "ramp_s": float(ramp_s)}]}
+
+
+def run_seed(seed, duration_s, blackout, cases=CASES, filter_overrides=None, flight_overrides=None):
     """{case: CaseResult} plus the receivers' epochs of one seed."""
     from hyper_nav_repro.seed004.cases import run_case
-    p = prepare(seed, duration_s, blackout, filter_overrides=filter_overrides)
+    p = prepare(seed, duration_s, blackout, filter_overrides=filter_overrides, flight_overrides=flight_overrides)
     out, rx = {}, {"unaided": p.unaided, "a": p.no_loss}
     for c in cases:
         if c == "a":
@@ -170,4 +184,4 @@ def channel_reacquisition_s(epochs, t_thr_by_sat):
     return out
 
 
-__all__ = ["CASES", "CASE_NAMES", "prepare", "fly_aided", "run_seed", "reacquisition_s", "plasma"]
+__all__ = ["CASES", "CASE_NAMES", "prepare", "fly_aided", "run_seed", "reacquisition_s", "plasma", "pullup_flight"]

@@ -18,6 +18,15 @@ the time from its C/N0 (truth) rising back above the aided PLL rule
 threshold (17.9 dB-Hz) to the first 1-Hz epoch with the channel's code
 (PR valid) and carrier (CP valid) lock. JSON + PNGs in ``--out``.
 ``--short``: 40 s flight, 40 dB sheath over 10-30 s, one seed (the unit test).
+
+``--pullup``: the pull-up flight instead (``PULLUP``): seed 004's vehicle with
+a lift that answers in 0.1 s, a 2 g pull-up command (lift-limited to 2.2 g,
+jerk up to 66 m/s^3 at its ends) inside a 15 dB sheath; reported besides, per
+receiver, the channels that keep code and carrier lock through it and how
+long carrier stays lost, and per case the error and ANEES in the pull-up's
+window. ``--aiding-delay``: the filter's output delay (the aiding's age, 0.1
+s by default): with 0.1 s the aided loops see the pull-up's jerk through 0.1-0.2
+s of extrapolation.
 """
 from __future__ import annotations
 
@@ -29,17 +38,56 @@ import time
 
 import numpy as np
 
-from .blackout_cases import CASE_NAMES, CASES, run_seed
+from .blackout_cases import CASE_NAMES, CASES, pullup_flight, run_seed
 
 SHORT = {"duration_s": 40.0, "blackout": (10.0, 4.0, 8.0, 40.0), "seeds": 1}
+# the pull-up flight (--pullup): seed 004's vehicle with a lift that answers in 0.1 s (10 c_l per s;
+# the scenario's 1 s / 1 per s give jerks below 10 m/s^3), a 2 g pull-up command over 245-249 s with
+# 0.2 s ramps (lift-limited to 2.2 g, jerk up to 66 m/s^3 at its ends), inside a 15 dB sheath
+# (C/N0 about 28.6 dB-Hz, 230-260 s, 5 s ramps): weak signal and dynamics at once
+PULLUP = {"duration_s": 275.0, "blackout": (225.0, 5.0, 30.0, 15.0),
+          "pullup": {"t_start_s": 245.0, "load_g": 2.0, "ramp_s": 0.2, "length_s": 4.0, "lift_tau_s": 0.1,
+                     "lift_rate_per_s": 10.0}}
+SHORT_PULLUP = {"duration_s": 40.0, "blackout": (10.0, 4.0, 8.0, 40.0), "seeds": 1,
+                "pullup": {**PULLUP["pullup"], "t_start_s": 30.0}}
 AIDED_RULE_DBHZ = 17.9           # pll_threshold_dbhz(3 Hz, 20 ms): asserted in test_acquisition
 
 
-def _filter_overrides(name):
+def _filter_overrides(name, aiding_delay_s=0.1):
+    """The filter of ``--filter`` with its solutions released ``aiding_delay_s``
+    behind the IMU (the aiding's age is that to one IMU interval more)."""
+    d = {"filter.config.output_delay_s": float(aiding_delay_s),
+         "filter.sources.gnss_raw.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s),
+         "filter.sources.gnss_virtual.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s)}
     if name == "before":
-        return {}
+        return d
     from hyper_nav_repro.seed004.tc_consistency import AFTER
-    return dict(AFTER)
+    return {**AFTER, **d}
+
+
+def pullup_locks(epochs, t0_s, t1_s):
+    """Channels of one receiver around a pull-up over [t0, t1]: code and
+    carrier locks at the last epoch before it, their minimum over [t0, t1 +
+    5 s], the satellites that lost carrier lock there and how long each
+    stayed without it (s, 1 s epochs; None: not back by the window's end)."""
+    before = [e for e in epochs if e.t_s < t0_s]
+    during = [e for e in epochs if t0_s <= e.t_s <= t1_s + 5.0]
+    if not before or not during:
+        return None
+    b = before[-1]
+    cp = lambda e, i: bool(e.tracking_flags[i] & 2)       # noqa: E731
+    had = [s for i, s in enumerate(b.sat_ids) if cp(b, i)]
+    lost = {}
+    for s in had:
+        out = [e.t_s for e in during if s not in e.sat_ids or not cp(e, e.sat_ids.index(s))]
+        if out:
+            back = next((e.t_s for e in during if e.t_s > out[0] and s in e.sat_ids and cp(e, e.sat_ids.index(s))),
+                        None)
+            lost[s] = None if back is None else float(back - out[0])
+    return {"code_before": int(sum(bool(x) for x in b.locked)), "carrier_before": len(had),
+            "code_min": int(min(sum(bool(x) for x in e.locked) for e in during)),
+            "carrier_min": int(min(sum(cp(e, i) for i in range(len(e.sat_ids))) for e in during)),
+            "carrier_lost": len(lost), "carrier_outage_s": sorted(lost.values(), key=lambda v: (v is None, v))}
 
 
 def channel_reacq(epochs, t_hold_end_s, thr_dbhz=AIDED_RULE_DBHZ):
@@ -69,12 +117,26 @@ def main(argv=None) -> int:
     ap.add_argument("--blackout", type=float, nargs=4, default=[90.0, 40.0, 20.0, 50.0],
                     metavar=("T_ON", "RAMP_S", "HOLD_S", "DEPTH_DB"))
     ap.add_argument("--filter", choices=("after", "before"), default="after")
+    ap.add_argument("--pullup", action="store_true",
+                    help="the pull-up flight instead (PULLUP: a 2 g pull-up with 0.2 s ramps inside a 15 dB sheath)")
+    ap.add_argument("--aiding-delay", type=float, default=0.1,
+                    help="the filter's output delay, s: the aiding's age (default 0.1 s, 0.1-0.2 s old)")
     ap.add_argument("--short", action="store_true")
-    ap.add_argument("--out", default="results/aided_tracking")
+    ap.add_argument("--out", default=None, help="default results/aided_tracking (results/aided_tracking_pullup)")
     a = ap.parse_args(argv)
     from scipy.stats import chi2
-    if a.short:
+    pull = None
+    if a.pullup:
+        pre = SHORT_PULLUP if a.short else PULLUP
+        pull = pre["pullup"]
+        a.duration, a.blackout = pre["duration_s"], list(pre["blackout"])
+        if a.short:
+            a.seeds = pre["seeds"]
+    elif a.short:
         a.duration, a.blackout, a.seeds = SHORT["duration_s"], list(SHORT["blackout"]), SHORT["seeds"]
+    a.out = a.out or ("results/aided_tracking_pullup" if a.pullup else "results/aided_tracking")
+    flight = None if pull is None else pullup_flight(pull["t_start_s"], pull["load_g"], pull["ramp_s"],
+                                                     pull["length_s"], pull["lift_tau_s"], pull["lift_rate_per_s"])
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     t_on, ramp, hold, depth = a.blackout
@@ -82,10 +144,14 @@ def main(argv=None) -> int:
     t5 = t_end + 5.0
     c0 = time.process_time()
     runs, reacq = [], {"unaided": [], "aided": []}
-    aid_counts = []
+    aid_counts, pull_rx = [], {"unaided": [], "aided": []}
     for seed in range(a.seeds):
-        res, rx = run_seed(seed, a.duration, tuple(a.blackout), filter_overrides=_filter_overrides(a.filter))
+        res, rx = run_seed(seed, a.duration, tuple(a.blackout),
+                           filter_overrides=_filter_overrides(a.filter, a.aiding_delay), flight_overrides=flight)
         runs.append(res)
+        if pull is not None:
+            for k in pull_rx:
+                pull_rx[k].append(pullup_locks(rx[k], pull["t_start_s"], pull["t_start_s"] + pull["length_s"]))
         for k in reacq:
             reacq[k] += [(seed,) + r for r in channel_reacq(rx[k], t_hold_end)]
         aid_counts.append(res["aided"].counters)
@@ -145,13 +211,35 @@ def main(argv=None) -> int:
                  "not_reacquired_code": sum(x[3] is None for x in v),
                  "per_channel": [{"seed": s, "sat": sat, "t_above_threshold_s": tt, "code_lock_s": cl,
                                   "carrier_lock_s": pl} for s, sat, tt, cl, pl in v]}
-    doc = {"issue": 23, "data": "simulated world (seed004_virtual flight, realistic-world receiver errors)",
-           "scenario": "seed004_virtual", "filter": a.filter, "seeds": n, "duration_s": a.duration,
+    if pull is not None:
+        t_p0, t_p1 = pull["t_start_s"], pull["t_start_s"] + pull["length_s"] + 5.0
+        wp = (t >= t_p0) & (t <= t_p1)
+        pdoc = {**pull, "window_s": [t_p0, t_p1], "receivers": {}, "cases": {}}
+        for k, v in pull_rx.items():
+            v = [x for x in v if x is not None]
+            outs = [o for x in v for o in x["carrier_outage_s"]]
+            pdoc["receivers"][k] = {
+                "carrier_before_mean": float(np.mean([x["carrier_before"] for x in v])),
+                "carrier_min_mean": float(np.mean([x["carrier_min"] for x in v])),
+                "code_min_mean": float(np.mean([x["code_min"] for x in v])),
+                "channels_losing_carrier": int(sum(x["carrier_lost"] for x in v)),
+                "channels_with_carrier_before": int(sum(x["carrier_before"] for x in v)),
+                "carrier_outage_s_median": float(np.median([o for o in outs if o is not None])) if any(
+                    o is not None for o in outs) else None,
+                "carrier_not_back": sum(o is None for o in outs), "per_seed": v}
+        for c in CASES:
+            pdoc["cases"][c] = {"pos_h_m_mean": float(hpos[c][:, wp].mean()), "pos_h_m_max": float(hpos[c][:, wp].max()),
+                                "pos_v_m_mean": float(vpos[c][:, wp].mean()),
+                                "anees_pos": float(nees[c].mean(axis=0)[wp].mean())}
+    doc = {"issue": 23, "data": "simulated world (seed004_virtual flight, realistic-world receiver errors)"
+           + ("; the pull-up flight (seed 004's vehicle, lift answering in 0.1 s, 2 g pull-up)" if pull else ""),
+           "scenario": "seed004_virtual", "filter": a.filter, "aiding_delay_s": a.aiding_delay,
+           "seeds": n, "duration_s": a.duration,
            "blackout": {"t_on_s": t_on, "ramp_s": ramp, "hold_s": hold, "depth_db": depth, "t_end_s": t_end},
            "cases": CASE_NAMES, "anees_band_95": band, "epoch_resolution_s": 1.0,
            "aided_threshold_dbhz": AIDED_RULE_DBHZ, "reacquisition": rq, "results": summary,
            "h_error_mean_over_seeds_m": curves,
-           "aiding_counters": aid_counts, "cpu_s": cpu}
+           "aiding_counters": aid_counts, "cpu_s": cpu, **({"pullup": pdoc} if pull is not None else {})}
     (out / "blackout_cases.json").write_text(json.dumps(doc, indent=1))
     pngs = plot(t, hpos, nees, band, runs, reacq, a, out, n)
     print(f"ANEES 95 % band over {n} seeds: [{band[0]:.2f}, {band[1]:.2f}]")
@@ -173,6 +261,16 @@ def main(argv=None) -> int:
         print(f"reacquisition {k}: {v['channels']} channels; code lock {v['code_lock_s_median']} s median "
               f"(p90 {v['code_lock_s_p90']}), carrier lock {v['carrier_lock_s_median']} s median "
               f"(p90 {v['carrier_lock_s_p90']}), {v['not_reacquired_code']} not reacquired; 1 s epochs")
+    if pull is not None:
+        for k, v in pdoc["receivers"].items():
+            print(f"pull-up {pdoc['window_s'][0]:g}-{pdoc['window_s'][1]:g} s, {k} receiver: carrier lock on "
+                  f"{v['carrier_before_mean']:.1f} channels before (seed mean), at least {v['carrier_min_mean']:.1f} "
+                  f"(code {v['code_min_mean']:.1f}) in the window; {v['channels_losing_carrier']} of "
+                  f"{v['channels_with_carrier_before']} channels x seeds lost carrier (median outage "
+                  f"{v['carrier_outage_s_median']} s, {v['carrier_not_back']} not back)")
+        for c, v in pdoc["cases"].items():
+            print(f"pull-up window, {CASE_NAMES[c]:44s}: h err mean {v['pos_h_m_mean']:.2f} max {v['pos_h_m_max']:.2f} m,"
+                  f" v err mean {v['pos_v_m_mean']:.2f} m, position ANEES {v['anees_pos']:.2f}")
     print(f"CPU {cpu:.0f} s; wrote {out / 'blackout_cases.json'} and {', '.join(str(p) for p in pngs)}")
     return 0
 
@@ -184,6 +282,9 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     t_on, ramp, hold, depth = a.blackout
     t_end = t_on + 2 * ramp + hold
     data = f"simulated world, seed004_virtual flight, {depth:g} dB sheath {t_on:g}-{t_end:g} s, {n} seeds"
+    if a.pullup:
+        data += ", 2 g pull-up 245-249 s (lift answering in 0.1 s)"
+    data += f", aiding {a.aiding_delay:g} s old"
     pngs = []
     fig, axs = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
     for c in CASES:
@@ -202,7 +303,8 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     axs[1].set_yscale("log")
     axs[1].set_ylabel("position ANEES (3 dof)")
     axs[1].set_xlabel("scenario time [s]")
-    fig.suptitle(f"Navigation through a plasma blackout ({data})", fontsize=10)
+    fig.suptitle(f"Navigation through a {'pull-up in a plasma sheath' if a.pullup else 'plasma blackout'} ({data})",
+                 fontsize=9)
     fig.tight_layout()
     p = out / "blackout_cases_error.png"
     fig.savefig(p, dpi=110)
