@@ -23,7 +23,8 @@ help:
 	@echo "make repro-seed003 - seed 003 Table 3 / Figs. 6-9 with the PCRB (SEEDS=20 WORKERS=1)"
 	@echo "make repro-seed004 - seed 004 Tables 4-5 / Figs. 5-6: virtual GNSS under lock loss, both worlds (3 seeds)"
 	@echo "make repro-aided-tracking - issue 23: unaided vs INS-aided receiver through a plasma blackout (10 seeds),"
-	@echo "                            then the filter in the loop: 5 cases beside seed 004 (10 seeds)"
+	@echo "                            then the filter in the loop: 5 cases beside seed 004 (10 seeds), and the"
+	@echo "                            pull-up flight with aiding 0.1 s and 0.02 s old (10 seeds each)"
 	@echo "make repro-walk    - the walk_0827 recording (u-blox + MEMS IMU): TC / LC / SPP against RTK, outages"
 
 setup:
@@ -63,6 +64,8 @@ repro-seed004: setup
 repro-aided-tracking: setup
 	@$(ENV) ros2run hyper_nav_repro repro_aided_tracking --out results/aided_tracking $(ARGS)
 	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --out results/aided_tracking
+	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --pullup --out results/aided_tracking_pullup
+	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --pullup --aiding-delay 0.02 --out results/aided_tracking_pullup_fresh
 repro-walk: setup
 	@$(ENV) ros2run hyper_nav_sim repro_walk --out results/walk $(ARGS)
 
