@@ -110,6 +110,28 @@ def channel_reacq(epochs, t_hold_end_s, thr_dbhz=AIDED_RULE_DBHZ):
     return out
 
 
+def _paired_text(p):
+    if p is None:
+        return "one seed"
+    return (f"below by > {p['z']:g} SE on {100 * p['share_below']:.0f} %, above on {100 * p['share_above']:.0f} %, "
+            f"undecided {100 * p['share_undecided']:.0f} %")
+
+
+def paired_vs_coasting(h_case, h_coast, z=2.0):
+    """Per epoch, the seeds' paired difference d = h_case - h_coasting
+    (seeds x epochs): the share of epochs where the case is below coasting
+    beyond z standard errors of the mean difference (mean + z SE < 0), above
+    it beyond them (mean - z SE > 0), and neither (the seeds cannot tell)."""
+    d = np.asarray(h_case, float) - np.asarray(h_coast, float)
+    n = d.shape[0]
+    if n < 2:
+        return None
+    m, se = d.mean(axis=0), d.std(axis=0, ddof=1) / np.sqrt(n)
+    below, above = m + z * se < 0.0, m - z * se > 0.0
+    return {"z": z, "share_below": float(np.mean(below)), "share_above": float(np.mean(above)),
+            "share_undecided": float(np.mean(~below & ~above))}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=10)
@@ -193,6 +215,7 @@ def main(argv=None) -> int:
         # where the case is not below coasting: by how much at most (seed means) and when
         k = int(np.argmax(excess))
         d["max_excess_over_coasting_m"] = {"value": float(excess[k]), "t_s": float(t[both][k])}
+        d["vs_coasting_paired"] = paired_vs_coasting(hpos[c][:, both], hpos["coasting"][:, both])
         summary[c] = d
     # the figure's curves on a 1 s grid: seed-mean horizontal error per case
     grid = np.arange(np.ceil(t[0]), t[-1] + 1e-9, 1.0)
@@ -252,7 +275,8 @@ def main(argv=None) -> int:
               f"{s.get('pos_h_m_after', {}).get('mean', float('nan')):7.2f} m; vel h during "
               f"{s.get('vel_h_mps_during', {}).get('mean', float('nan')):.3f} m/s; below coasting "
               f"{100 * s['share_below_coasting']:.0f} % of epochs (at most {s['max_excess_over_coasting_m']['value']:+.3f} m "
-              f"above, at {s['max_excess_over_coasting_m']['t_s']:.0f} s); ANEES during "
+              f"above, at {s['max_excess_over_coasting_m']['t_s']:.0f} s; paired over seeds: "
+              f"{_paired_text(s['vs_coasting_paired'])}); ANEES during "
               f"{s.get('anees_pos_during', {}).get('mean', float('nan')):.2f} "
               f"({100 * s.get('anees_pos_during', {}).get('share_in_band', float('nan')):.0f} % in band), after "
               f"{s.get('anees_pos_after', {}).get('mean', float('nan')):.2f} "

@@ -97,3 +97,19 @@ def test_aided_receiver_through_the_pullup_needs_fresh_aiding():
     assert old["carrier_lost"] >= 1 and old["code_min"] == old["code_before"]
     assert all(o is not None and o <= 5.0 for o in old["carrier_outage_s"])
     assert locks[0.02]["unaided"]["carrier_before"] < fresh["carrier_before"]
+
+
+def test_paired_comparison_with_coasting():
+    """The paired difference over seeds decides an epoch only beyond 2
+    standard errors: a case 0.5 m below coasting with 0.1 m seed spread is
+    below everywhere; one equal to coasting up to noise is undecided; one 1 m
+    above is above."""
+    from hyper_nav_repro.aided_tracking.reproduce_blackout import paired_vs_coasting
+    rng = np.random.default_rng(0)
+    coast = 2.0 + rng.standard_normal((10, 50))
+    below = paired_vs_coasting(coast - 0.5 + 0.1 * rng.standard_normal((10, 50)), coast)
+    assert below["share_below"] == 1.0 and below["share_above"] == 0.0
+    same = paired_vs_coasting(coast + 0.01 * rng.standard_normal((10, 50)), coast)
+    assert same["share_undecided"] > 0.8
+    assert paired_vs_coasting(coast + 1.0, coast)["share_above"] == 1.0
+    assert paired_vs_coasting(coast[:1], coast[:1]) is None
