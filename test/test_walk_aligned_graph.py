@@ -54,7 +54,9 @@ def test_aligned_walk_replays_into_live_fusion_node_as_offline(tmp_path, segment
     sols, eng = run_offline(recs, sc.filter_config(), sc.filter_initial_state(), sc.filter_sources())
     assert eng.kf.stats["pseudorange"][0] > 500 and len(sols) >= 100
     also = {"/tf_static": TFMessage}
-    live = play_into_fusion(sc_file, bag, INPUTS, len(sols), rate=rate, also=also, latched=("/tf_static",))
+    logs = {}
+    live = play_into_fusion(sc_file, bag, INPUTS, len(sols), rate=rate, also=also, latched=("/tf_static",),
+                            logs=logs)
     # the mounting the importer applied, on /tf_static: base_link -> imu_link rotated by it
     (imu_tf,) = [t for m in also["/tf_static"] for t in m.transforms if t.child_frame_id == "imu_link"]
     r = imu_tf.transform.rotation
@@ -63,7 +65,7 @@ def test_aligned_walk_replays_into_live_fusion_node_as_offline(tmp_path, segment
     assert abs(q_expected[3]) < 0.99                                                  # a real rotation (180/0/-90)
     for msg, sol in zip(live, sols):
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-        assert t == pytest.approx(sol.t_s, abs=1e-6)
+        assert t == pytest.approx(sol.t_s, abs=1e-6), (t, sol.t_s, logs)
         assert msg.lat_rad == sol.state.lat_rad and msg.lon_rad == sol.state.lon_rad       # bit for bit
         assert msg.alt_m == sol.state.alt_m
         assert np.array_equal(np.asarray(msg.vel_enu_mps), sol.state.vel_enu_mps)

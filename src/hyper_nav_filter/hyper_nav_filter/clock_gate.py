@@ -35,9 +35,10 @@ publisher counts a subscription as matched once *it* has discovered it, and
 starts sending; the subscriber may discover that publisher later, and a
 volatile reliable reader drops what a writer sent before the reader matched
 it. While the gate has not heard a node it holds the clock, up to its
-``timeout_s`` counted from the start of the flight or replay
-(``AllowanceGate.restart``), so nothing is sent before the subscriber is
-ready (issue 22, docs/faults-and-timing.md).
+``first_timeout_s`` (60 s; ``timeout_s`` is for a node that went silent)
+counted from the start of the flight or replay (``AllowanceGate.restart``),
+so nothing is sent before the subscriber is ready (issue 22,
+docs/faults-and-timing.md).
 """
 from __future__ import annotations
 
@@ -102,7 +103,7 @@ class InputsReady:
     topics still unmatched (a publisher with incompatible QoS never matches),
     so a gate is never held for good."""
 
-    def __init__(self, node, subscriptions, required=(), timeout_s: float = 5.0):
+    def __init__(self, node, subscriptions, required=(), timeout_s: float = 20.0):
         """``subscriptions``: a callable returning the node's input
         subscriptions (rclpy ``Subscription``), which may be created later."""
         self.node = node
@@ -140,14 +141,19 @@ class InputsReady:
 
 class AllowanceGate:
     """The time source's side: the clock limit from the allowances of the
-    ``expected`` nodes (names). A node not heard from yet, or silent for
-    ``timeout_s`` of wall time, counts after ``timeout_s`` from the gate's
-    start as not waited for (``dropped``)."""
+    ``expected`` nodes (names). A node silent for ``timeout_s`` of wall time
+    after it was heard, or not heard from at all ``first_timeout_s`` after
+    the gate's (re)start, counts as not waited for (``dropped``). The first
+    wait is the longer one: a node not heard yet is still starting (imports,
+    its subscriptions matching from its side, ``InputsReady``), and a time
+    source that runs free past it sends its first messages to subscriptions
+    that may not have matched yet: lost."""
 
-    def __init__(self, node, expected, timeout_s: float = 10.0):
+    def __init__(self, node, expected, timeout_s: float = 10.0, first_timeout_s: float = 60.0):
         self.node = node
         self.expected = set(expected)
         self.timeout_s = float(timeout_s)
+        self.first_timeout_s = max(float(first_timeout_s), self.timeout_s)
         self.t0 = time.monotonic()
         self.allow: dict[str, tuple[float, float]] = {}    # name -> (allow_s, wall time heard)
         self.held_s = 0.0                                  # wall time the clock waited for the graph
@@ -178,7 +184,7 @@ class AllowanceGate:
         for name in self.expected:
             a = self.allow.get(name)
             if a is None:
-                if now - self.t0 < self.timeout_s:
+                if now - self.t0 < self.first_timeout_s:
                     lim = min(lim, 0.0)
                 else:
                     self._drop(name, "never heard")
@@ -188,8 +194,13 @@ class AllowanceGate:
                 lim = min(lim, a[0])
         return lim
 
+    def all_heard(self) -> bool:
+        """Whether every expected node has sent an allowance or been dropped."""
+        return all(n in self.allow or n in self.dropped for n in self.expected)
+
     def _drop(self, name: str, why: str) -> None:
         if name not in self.dropped:
-            self.node.get_logger().warning(f"clock gate: {name} {why} for {self.timeout_s:g} s (wall); "
+            t = self.first_timeout_s if why == "never heard" else self.timeout_s
+            self.node.get_logger().warning(f"clock gate: {name} {why} for {t:g} s (wall); "
                                            "not waiting for it while it stays so")
         self.dropped.add(name)

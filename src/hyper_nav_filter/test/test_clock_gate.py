@@ -89,9 +89,24 @@ def test_a_publisher_that_never_matches_holds_the_gate_only_until_the_timeout(tw
 @pytest.mark.graph
 def test_the_gate_counts_its_not_heard_timeout_from_its_restart(two_participants):
     (node, _), execs = two_participants
-    gate = AllowanceGate(node, ["fusion"], timeout_s=0.3)
+    gate = AllowanceGate(node, ["fusion"], timeout_s=0.3, first_timeout_s=0.3)
     time.sleep(0.4)                  # the time source waited this long for its subscribers
     gate.restart()
     assert gate.limit_s() == 0.0 and not gate.dropped               # still held for the node
     time.sleep(0.4)
     assert gate.limit_s() == float("inf") and gate.dropped == {"fusion"}     # never heard: no longer waited for
+
+
+@pytest.mark.graph
+def test_a_node_not_heard_yet_is_waited_for_longer_than_a_silent_one(two_participants):
+    """A node that has not sent its first allowance is still starting: the
+    gate holds the clock for it ``first_timeout_s`` (not the silent-node
+    ``timeout_s``), and does not count it as heard until it speaks."""
+    (node, _), execs = two_participants
+    gate = AllowanceGate(node, ["fusion"], timeout_s=0.2, first_timeout_s=0.8)
+    gate.restart()
+    time.sleep(0.4)
+    assert gate.limit_s() == 0.0 and not gate.dropped and not gate.all_heard()
+    time.sleep(0.6)
+    assert gate.limit_s() == float("inf") and gate.dropped == {"fusion"} and gate.all_heard()
+    assert AllowanceGate(node, ["x"], timeout_s=5.0, first_timeout_s=1.0).first_timeout_s == 5.0

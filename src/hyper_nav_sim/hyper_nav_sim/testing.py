@@ -104,7 +104,7 @@ def isolated_domain_id() -> int:
 
 
 def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, player_timeout_s: float = 180.0,
-                     wait_s: float = 60.0, also: dict | None = None, latched=()) -> list:
+                     wait_s: float = 60.0, also: dict | None = None, latched=(), logs: dict | None = None) -> list:
     """Play ``topics`` of ``bag`` (the player, wall-clock paced at ``rate``
     and never ahead of what the fusion node allows, no /clock) into a live fusion node set up by ``scenario`` (a scenario
     name or YAML file) and return its first ``count`` ``nav/state`` messages,
@@ -112,7 +112,8 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
     bag (live == offline). Raises AssertionError with the node's log if the
     player fails or fewer than ``count`` solutions arrive within ``wait_s``.
     ``also``: {topic: type} collected as well, their messages put back in
-    ``also`` (``latched``: those of them published transient local)."""
+    ``also`` (``latched``: those of them published transient local);
+    ``logs``: filled with the player's and the fusion node's logs."""
     from hyper_nav_msgs.msg import NavState
 
     from .graph import Graph
@@ -139,6 +140,8 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
             assert enough(c.messages), (len(c.messages["nav/state"]), count, g.log("fusion"))
             for t in also or {}:
                 also[t] = list(c.messages[t])
+            if logs is not None:
+                logs.update({n: g.log(n) for n in ("player", "fusion")})
             return list(c.messages["nav/state"])[:count]
 
 

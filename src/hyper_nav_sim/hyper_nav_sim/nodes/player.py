@@ -181,7 +181,8 @@ class Player(Node):
             self._limit_s = self.gate.limit_s()
             if t_s <= self._limit_s + 1e-9:
                 break
-            if self._limit_s != last:
+            if self._limit_s != last or not self.gate.all_heard():
+                # (a node not heard yet is the gate's first wait, not an allowance that stopped)
                 changed, last = time.monotonic(), self._limit_s
             elif time.monotonic() - changed > self.gate.timeout_s:
                 # nothing moves the allowance any more (e.g. records past the bag's last IMU sample)
