@@ -108,7 +108,7 @@ def test_augmented_ekf_is_consistent_on_a_non_maneuvering_glide(seed):
 
 @pytest.mark.xfail(strict=False, reason="issue 24: the two-mode AUG-IMM is conservative on a glide (measured NEES "
                                         "3.77 / 3.82 / 4.34, v 243-260 m/s): its mode probabilities stay near "
-                                        "50/50 (one-step innovations at 64 km of radar noise hardly tell the modes "
+                                        "their prior (one-step innovations at 64 km of radar noise hardly tell the modes "
                                         "apart) and the maneuver mode's estimates widen the mixture")
 @pytest.mark.parametrize("seed", [11, 12, 13])
 def test_augmented_imm_is_consistent_on_a_non_maneuvering_glide(seed):
