@@ -264,6 +264,7 @@ def main(argv=None) -> int:
            "h_error_mean_over_seeds_m": curves,
            "aiding_counters": aid_counts, "cpu_s": cpu, **({"pullup": pdoc} if pull is not None else {})}
     (out / "blackout_cases.json").write_text(json.dumps(doc, indent=1))
+    a.pull = pull
     pngs = plot(t, hpos, nees, band, runs, reacq, a, out, n)
     print(f"ANEES 95 % band over {n} seeds: [{band[0]:.2f}, {band[1]:.2f}]")
     for c in CASES:
@@ -306,8 +307,10 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     t_on, ramp, hold, depth = a.blackout
     t_end = t_on + 2 * ramp + hold
     data = f"simulated world, seed004_virtual flight, {depth:g} dB sheath {t_on:g}-{t_end:g} s, {n} seeds"
-    if a.pullup:
-        data += ", 2 g pull-up 245-249 s (lift answering in 0.1 s)"
+    if getattr(a, "pull", None):
+        pu = a.pull
+        data += (f", {pu['load_g']:g} g pull-up {pu['t_start_s']:g}-{pu['t_start_s'] + pu['length_s']:g} s "
+                 f"(lift answering in {pu['lift_tau_s']:g} s)")
     data += f", aiding {a.aiding_delay:g} s old"
     pngs = []
     fig, axs = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
@@ -327,8 +330,10 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     axs[1].set_yscale("log")
     axs[1].set_ylabel("position ANEES (3 dof)")
     axs[1].set_xlabel("scenario time [s]")
-    fig.suptitle(f"Navigation through a {'pull-up in a plasma sheath' if a.pullup else 'plasma blackout'} ({data})",
-                 fontsize=9)
+    import textwrap
+    fig.suptitle("\n".join(textwrap.wrap(
+        f"Navigation through a {'pull-up in a plasma sheath' if a.pullup else 'plasma blackout'} ({data})", 110)),
+        fontsize=9)
     fig.tight_layout()
     p = out / "blackout_cases_error.png"
     fig.savefig(p, dpi=110)
@@ -341,7 +346,7 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
             ax.hist(v, bins=np.arange(-0.5, max(v) + 1.5, 1.0), alpha=0.6, label=f"{k} receiver, code lock (n={len(v)})")
     ax.set_xlabel(f"time from C/N0 > {AIDED_RULE_DBHZ} dB-Hz to code lock [s] (1 s epochs)")
     ax.set_ylabel("channels x seeds")
-    ax.set_title(f"Reacquisition ({data})", fontsize=8)
+    ax.set_title("\n".join(textwrap.wrap(f"Reacquisition ({data})", 80)), fontsize=8)
     ax.legend()
     fig.tight_layout()
     p = out / "blackout_cases_reacquisition.png"
