@@ -198,13 +198,44 @@ def main(argv=None) -> int:
         print("updates accepted / gated per run (mean): " + ", ".join(
             f"{k} {np.mean([r['accepted'].get(k, 0) for r in result['per_run']]):.1f} / "
             f"{np.mean([r['gated'].get(k, 0) for r in result['per_run']]):.1f}" for k in kinds))
+    verdict = run_verdicts(result["per_run"])
+    result["verdict"] = verdict
     paper = beside_paper(result["per_run"], sc)
     if paper:
         print(paper)
         result["beside_paper"] = paper
         (out_dir / "campaign.json").write_text(json.dumps(_jsonable(result), indent=1))
+    (out_dir / "campaign.json").write_text(json.dumps(_jsonable(result), indent=1))
     print(f"[mc_campaign] wrote {out_dir / 'campaign.json'}, " + ", ".join(p.name for p in pngs))
-    return 0
+    for w in verdict["warnings"]:
+        print(f"[mc_campaign] warning: {w}")
+    for f in verdict["failures"]:
+        print(f"[mc_campaign] FAIL: {f}")
+    print(f"VERDICT: {verdict['verdict']}" + (f" ({len(verdict['failed_runs'])} of {len(result['per_run'])} runs "
+                                              f"fail the per-source rules, core/verdict_rules.py)"
+                                              if verdict["failures"] else " (every run passes the per-source rules)"))
+    return 0 if verdict["verdict"] == "PASS" else 1
+
+
+def run_verdicts(per_run: list[dict]) -> dict:
+    """The per-source rules (``core.verdict_rules``) on every run: the
+    campaign fails when any run does; each sentence names its run."""
+    from .core import run_check, verdict_rules
+    failures, warnings, failed = [], [], []
+    for r in per_run:
+        stats = {kd: verdict_rules.SourceStats(kd, int(r["accepted"].get(kd, 0)), int(r["gated"].get(kd, 0)),
+                                               float(r.get("mean_nis_per_dof", {}).get(kd, float("nan"))),
+                                               int(r.get("far", {}).get(kd, 0)),
+                                               int(r.get("recoveries", {}).get(kd, 0)))
+                 for kd in sorted(set(r["accepted"]) | set(r["gated"]))}
+        out = run_check.Outcome()
+        verdict_rules.check(stats, out)
+        failures += [f"run {r['k']}: {f}" for f in out.failures]
+        warnings += [f"run {r['k']}: {w}" for w in out.warnings]
+        if out.failures:
+            failed.append(r["k"])
+    return {"verdict": "FAIL" if failures else "PASS", "failures": failures, "warnings": warnings,
+            "failed_runs": failed}
 
 
 if __name__ == "__main__":

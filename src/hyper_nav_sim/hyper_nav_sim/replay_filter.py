@@ -36,7 +36,7 @@ import yaml
 
 from hyper_nav_filter.core.params import ConfigError
 
-from .core import run_check, scoring
+from .core import noise_check, run_check, scoring, verdict_rules
 from .core.scenario import ScenarioError, scenario_of_run
 from .core.scoring import ScoringError
 
@@ -64,6 +64,9 @@ def add_arguments(ap) -> None:
     ap.add_argument("--truth", help="truth file to score against (KF-GINS .nav layout unless --truth-map)")
     ap.add_argument("--truth-map", help="column map (YAML, core/importer/columns.py fields) of the --truth file")
     ap.add_argument("--write-nav", metavar="FILE", help="write the solution in the KF-GINS .nav format")
+    ap.add_argument("--write-nav-at", choices=("imu", "antenna"), default="imu",
+                    help="--write-nav at the IMU (the filter's state) or at the GNSS antenna (the lever arm "
+                         "antenna_lever_arm_b_m applied: position + C_b_n l_b, velocity + C_b_n (omega x l_b))")
     ap.add_argument("--write-std", metavar="FILE", help="write the standard deviations in the KF-GINS STD format")
 
 
@@ -225,6 +228,10 @@ def _replay(args) -> int:
             f"{k} {summary[k]['rms_3d']:.4g} -> {sm[k]['rms_3d']:.4g}" for k in scoring.ERROR_KEYS))
     _write_outputs(args, sols, nav, s)
     print(f"engine counters: {dict(eng.counters)}")
+    noise_check.report_saved(bag / "noise_check.yaml", out)  # an import's IMU noise check (import_data)
+    per_source = verdict_rules.from_filter(eng.kf)           # gated/accepted/NIS per source, and the rules
+    print(verdict_rules.format_table(per_source))
+    verdict_rules.check(per_source, out)
     return scoring.verdict(out, "replay_filter")
 
 
@@ -238,9 +245,14 @@ def _write_outputs(args, sols, nav: dict, s: Setup) -> None:
         # the closed form per matrix (2 us each): scipy's stack agrees to 1e-12 rad, which moves the 9th
         # decimal of 2 angles in 168,101 rows of the peer-format set; this writes the per-message text
         rph = np.array([C_b_n_to_euler(C) for C in nav["C"]])
-        array_io.write_rows(args.write_nav, kfgins.nav_rows(nav["t"], nav["lat"], nav["lon"], nav["alt"],
-                                                                nav["vel"], rph))
-        print(f"[replay_filter] wrote {args.write_nav} ({len(sols)} epochs, KF-GINS .nav)")
+        at = getattr(args, "write_nav_at", "imu")
+        lat, lon, alt, vel = nav["lat"], nav["lon"], nav["alt"], nav["vel"]
+        if at == "antenna":
+            lat, lon, alt, vel = at_antenna(nav, np.array([s.omega_ib_b_radps for s in sols]).reshape(-1, 3),
+                                            s.config.antenna_lever_arm_b_m)
+        array_io.write_rows(args.write_nav, kfgins.nav_rows(nav["t"], lat, lon, alt, vel, rph))
+        print(f"[replay_filter] wrote {args.write_nav} ({len(sols)} epochs, KF-GINS .nav, at the {at}"
+              + (f", lever arm {list(s.config.antenna_lever_arm_b_m)} m body FLU" if at == "antenna" else "") + ")")
     if args.write_std:
         array_io.write_rows(args.write_std, kfgins.std_rows(nav["t"], sigma_blocks(sols, s.config.layout)))
         print(f"[replay_filter] wrote {args.write_std} ({len(sols)} epochs, KF-GINS STD)")
@@ -248,3 +260,19 @@ def _write_outputs(args, sols, nav: dict, s: Setup) -> None:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def at_antenna(nav: dict, omega_b_radps, lever_arm_b_m):
+    """(lat, lon, alt, vel ENU) of the GNSS antenna from the IMU states:
+    p_ant = p + C_b_n l_b (ENU offset on the ellipsoid's radii), v_ant = v +
+    C_b_n (omega x l_b) (omega: the corrected body rate; earth rate neglected,
+    7e-5 rad/s x the lever arm)."""
+    from hyper_nav_filter.core import earth
+    lever = np.asarray(lever_arm_b_m, float)
+    d_enu = np.einsum("nij,j->ni", nav["C"], lever)
+    r_m, r_n = earth.radii(nav["lat"])
+    lat = nav["lat"] + d_enu[:, 1] / (r_m + nav["alt"])
+    lon = nav["lon"] + d_enu[:, 0] / ((r_n + nav["alt"]) * np.cos(nav["lat"]))
+    alt = nav["alt"] + d_enu[:, 2]
+    vel = nav["vel"] + np.einsum("nij,nj->ni", nav["C"], np.cross(omega_b_radps, lever))
+    return lat, lon, alt, vel

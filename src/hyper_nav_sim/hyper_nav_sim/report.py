@@ -26,7 +26,7 @@ import sys
 
 from hyper_nav_filter.replay_order import LATE_INPUTS_TOPIC
 
-from .core import run_check, scoring
+from .core import run_check, scoring, verdict_rules
 from .core.bag import deserialize, read_bag
 from .core.scenario import ScenarioError, scenario_of_run
 from .core.scoring import ScoringError
@@ -154,6 +154,9 @@ def _report(args) -> int:
     fusion = run["by_node"].get(run_check.FUSION_NODE, {})
     run_check.rejected_inputs(fusion, out)
     run_check.bridged_gaps(fusion, out)
+    per_source = verdict_rules.from_values(fusion)          # gated/accepted/NIS per source, and the rules
+    print(verdict_rules.format_table(per_source))
+    verdict_rules.check(per_source, out)
     run_check.status_faults(run["timeline"], out, exits)
     late = late_inputs_summary(run["late_inputs"])
     out.details["late_inputs"] = late

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 
 from .blocks import REGISTRY
-from .params import FLOAT, FLOATS, STR, STRS, ConfigError, ParamSpec, check_all, nonneg, positive
+from .params import FLOAT, FLOATS, INT, STR, STRS, ConfigError, ParamSpec, check_all, nonneg, positive
 from .state_layout import StateLayout
 
 __all__ = ["FilterConfig", "ConfigError", "CORE_PARAMS", "ALL_PARAMS", "PARAM_BY_NAME"]
@@ -37,6 +37,15 @@ CORE_PARAMS = (
     # (a NaN one is still refused); KF-GINS, for one, does not gate
     ParamSpec("gate_probability", FLOAT, 0.9999, "chi-square gate probability of the innovation test; "
               "1 = no gate (every finite innovation accepted)", lo=0.5, hi=1.0, lo_open=True),
+    # the gate's lock-out monitor (core.lockout; PX4 EKF2's innovation-consistency timeout)
+    positive("lockout_timeout_s", FLOAT, 1.0, "a source refused by the gate for this long (s) without an accepted "
+             "update, while it keeps arriving, is locked out and taken back (core.lockout)"),
+    ParamSpec("lockout_min_rejections", INT, 5, "... and refused at least this many times in a row", lo=1),
+    ParamSpec("lockout_recovery", STR, "inflate", "inflate: scale the covariance of the observed att/vel/pos "
+              "states until the refused innovation fits; off: no recovery (a gated source may stay locked out)",
+              choices=("inflate", "off")),
+    positive("lockout_target_nis_per_dof", FLOAT, 1.0, "lock-out recovery: the inflation brings the refused "
+             "innovation's NIS per dof to this value (1: its expected size; smaller: closer to a reset)"),
     positive("reprocess_window_s", FLOAT, 3.0, "how far back (s) a late measurement can still be applied exactly"),
     nonneg("output_delay_s", FLOAT, 1.0, "solutions are released this far (s) behind the newest IMU epoch"),
     positive("output_rate_hz", FLOAT, 50.0, "solution output rate (Hz)"),

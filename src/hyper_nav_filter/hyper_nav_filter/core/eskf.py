@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.stats import chi2
 
+from . import lockout
 from .blocks.base import Block
 from .blocks.nav import Attitude
 from .config import FilterConfig
@@ -77,6 +78,7 @@ class FilterSnapshot(NamedTuple):
     n_rejected: int
     last_nis: float
     stats: dict                    # {kind: (accepted, gated, sum of NIS/dof)}, never mutated
+    watch: dict = {}               # {kind: lockout.Watch}: the gate's lock-out monitor, never mutated
 
 
 class ErrorStateKF:
@@ -107,6 +109,7 @@ class ErrorStateKF:
         self.n_rejected = 0
         self.last_nis = float("nan")
         self.stats: dict[str, tuple] = {}
+        self.watch: dict[str, lockout.Watch] = {}
         # per-epoch quantities the RTS smoother needs (see smoother.py)
         self.last_Phi = np.eye(self.layout.dim)
         self.P_prior = self.P
@@ -126,6 +129,7 @@ class ErrorStateKF:
     def _set_model(self, cfg: FilterConfig) -> None:
         self.cfg = cfg
         self.sys = system_model(cfg)
+        self.lockout_rule = lockout.LockoutRule.of(cfg)
         lay = cfg.layout
         self._roles = {role: [lay.value_sl(b.name) for b in lay.value_blocks if b.imu_role == role]
                        for role in ("gyro_bias", "accel_bias", "gyro_scale", "accel_scale")}
@@ -185,15 +189,15 @@ class ErrorStateKF:
     # ---- bookkeeping for re-processing -----------------------------------------------
     def snapshot(self) -> FilterSnapshot:
         return FilterSnapshot(self.t_s, self.x_nav, self.values, self.P, self.imu_prev, self.cfg, self.n_updates,
-                              self.n_rejected, self.last_nis, self.stats)
+                              self.n_rejected, self.last_nis, self.stats, self.watch)
 
     def restore(self, snap: FilterSnapshot) -> None:
         self.t_s, self.x_nav, self.values, self.P, self.imu_prev = snap.t_s, snap.x_nav, snap.values, snap.P, \
             snap.imu_prev
         if snap.cfg is not self.cfg:
             self._set_model(snap.cfg)
-        self.n_updates, self.n_rejected, self.last_nis, self.stats = snap.n_updates, snap.n_rejected, \
-            snap.last_nis, snap.stats
+        self.n_updates, self.n_rejected, self.last_nis, self.stats, self.watch = snap.n_updates, \
+            snap.n_rejected, snap.last_nis, snap.stats, snap.watch
 
     def apply_model_update(self, values: dict) -> None:
         """Adopt new values of updatable configuration fields from now on
@@ -362,31 +366,62 @@ class ErrorStateKF:
 
     def update(self, kind: str, t_s: float, residual, H, R) -> UpdateResult:
         """Apply a measurement: residual = predicted - measured, H its Jacobian
-        w.r.t. this filter's error state, R its covariance."""
+        w.r.t. this filter's error state, R its covariance. A refusal by the
+        gate feeds the lock-out monitor (``core.lockout``): a source refused
+        for too long is taken back by a covariance inflation, counted in
+        ``watch``."""
         residual = np.asarray(residual, dtype=float)
         dof = len(residual)
         acc, gated, nis_sum = self.stats.get(kind, (0, 0, 0.0))
-        if self.fast:
-            status, nis, dx, P = fast_update.joseph_update(
-                self.P, np.ascontiguousarray(H, dtype=float), np.ascontiguousarray(R, dtype=float),
-                np.ascontiguousarray(residual), float(self.gate_threshold(dof)))
-            nis = float(nis)
-        else:
-            status, nis, dx, P = self._update_reference(residual, H, R, dof)
+        if lockout.is_far(residual, R):
+            w = self.watch.get(kind, lockout.Watch())
+            self.watch = {**self.watch, kind: w._replace(far=w.far + 1)}
+        status, nis, dx, P = self._gated_update(residual, H, R, dof)
         if status == 2:
             self.n_rejected += 1
             return UpdateResult(kind, t_s, float("inf"), False, residual)
         self.last_nis = nis
         if status == 1:
-            self.n_rejected += 1
-            self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
-            return UpdateResult(kind, t_s, nis, False, residual)
+            w = lockout.gated(self.watch.get(kind, lockout.Watch()), t_s)
+            if not lockout.locked_out(w, t_s, self.lockout_rule):
+                self.n_rejected += 1
+                self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
+                self.watch = {**self.watch, kind: w}
+                return UpdateResult(kind, t_s, nis, False, residual)
+            P_infl, k = lockout.inflation(self.P, np.asarray(H, float), np.asarray(R, float), residual, self.layout,
+                                          self.lockout_rule.target_nis_per_dof, self._P0_diag())
+            self.P = P_infl
+            self.watch = {**self.watch, kind: lockout.recovered(w, t_s, k)}
+            status, nis, dx, P = self._gated_update(residual, H, R, dof)
+            self.last_nis = nis
+            if status != 0:                  # not brought back inside the gate (k at its cap): still refused
+                self.n_rejected += 1
+                self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
+                return UpdateResult(kind, t_s, nis, False, residual)
+        w = self.watch.get(kind)
+        if w is not None and w.run:
+            self.watch = {**self.watch, kind: lockout.accepted(w)}
         self.stats = {**self.stats, kind: (acc + 1, gated, nis_sum + nis / dof)}
         self.P = P
         self.inject(dx)
         self.epoch_dx = dx if self.epoch_dx is None else self.epoch_dx + dx
         self.n_updates += 1
         return UpdateResult(kind, t_s, nis, True, residual)
+
+    def _P0_diag(self) -> np.ndarray:
+        """The configured initial variances (the lock-out recovery's bound), cached per configuration."""
+        if getattr(self, "_p0_cfg", None) is not self.cfg:
+            self._p0_cfg, self._p0 = self.cfg, np.diag(self.cfg.initial_covariance()).copy()
+        return self._p0
+
+    def _gated_update(self, residual, H, R, dof):
+        """(status, nis, dx, P') of the gated Joseph update, compiled or numpy."""
+        if self.fast:
+            status, nis, dx, P = fast_update.joseph_update(
+                self.P, np.ascontiguousarray(H, dtype=float), np.ascontiguousarray(R, dtype=float),
+                np.ascontiguousarray(residual), float(self.gate_threshold(dof)))
+            return status, float(nis), dx, P
+        return self._update_reference(residual, H, R, dof)
 
     def _update_reference(self, residual, H, R, dof):
         """The numpy form of ``fast.update.joseph_update``: (status, nis, dx, P')."""

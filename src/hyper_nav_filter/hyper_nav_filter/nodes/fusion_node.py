@@ -312,11 +312,16 @@ class FusionNode(Node):
         c.update({"heartbeat": self._heartbeat, "mode": MODE_NAMES[mode], "mode_sources": ",".join(kinds),
                   "n_updates": kf.n_updates, "n_rejected_gate": kf.n_rejected, "last_nis": f"{kf.last_nis:.3f}",
                   "filter_time_s": f"{eng.t_latest_s:.3f}", "sources": ",".join(s.id for s in self.router.sources)})
+        problems = self._liveness()
         for kind, (acc, rej, nis_sum) in kf.stats.items():
             c[f"{kind}_accepted"] = acc
             c[f"{kind}_gated"] = rej
             c[f"{kind}_mean_nis_per_dof"] = f"{nis_sum / max(acc, 1):.3f}"
-        problems = self._liveness()
+            w = kf.watch.get(kind)
+            c[f"{kind}_far"] = w.far if w else 0
+            c[f"{kind}_lockout_recoveries"] = w.recoveries if w else 0
+            if w and w.recoveries:
+                problems.append(f"{kind}: {w.recoveries} lock-out recoveries, last at t = {w.t_last_recovery_s:.2f} s")
         rejected = sum(v for k, v in c.items() if str(k).startswith("rejected_"))
         if eng.counters.get("imu_gaps"):
             problems.append(f"{eng.counters['imu_gaps']} IMU gap(s) bridged, last {eng.gaps[-1][0]:.2f}-"

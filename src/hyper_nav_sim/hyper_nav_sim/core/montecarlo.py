@@ -120,6 +120,9 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
     out["nis_n"] = {kd: np.array([row.get(kd, (0, 0.0))[0] for _, row in nis_rows]) for kd in kinds}
     out["gated"] = {kd: int(v[1]) for kd, v in eng.kf.stats.items()}
     out["accepted"] = {kd: int(v[0]) for kd, v in eng.kf.stats.items()}
+    out["far"] = {kd: int(w.far) for kd, w in eng.kf.watch.items()}
+    out["recoveries"] = {kd: int(w.recoveries) for kd, w in eng.kf.watch.items()}
+    out["mean_nis_per_dof"] = {kd: v[2] / v[0] if v[0] else float("nan") for kd, v in eng.kf.stats.items()}
     out["aiding"] = [dict(f.counts) for f in feed.aiding]     # the aiding nodes' counters (their diagnostics)
     out["cpu_s"] = time.process_time() - cpu0            # for throughput figures only, never in the statistics
     return out
