@@ -75,9 +75,12 @@ from hyper_nav_filter.core.params import ConfigError
 from hyper_nav_filter.filter_setup import FilterSetup
 
 from .core.bag import qos_profile
-from .core.importer import columns, gnss_raw, kfgins, messages
+from .core.fields import suggestion
+from .core.importer import columns, gnss_raw, kfgins, messages, rtklib_pos
 
-PRESETS = {"kfgins": kfgins.preset}
+# stream presets: name -> function(stream, spec, n_columns) -> column map; rtklib: the gnss stream is an
+# RTKLIB .pos solution (core/importer/rtklib_pos.py, its own fields), the other streams column maps
+PRESETS = {"kfgins": kfgins.preset, "rtklib": None}
 GNSS_RAW_PRESETS = ("ubx", "rinex")
 # IMU file formats for the receiver presets: name -> function(spec) -> column map (columns.py fields)
 IMU_FORMATS: dict = {}
@@ -106,7 +109,11 @@ def _stream_spec(doc: dict, stream: str, base_dir: pathlib.Path) -> dict | None:
     if preset is None:
         return spec
     if preset not in PRESETS:
-        raise ConfigError(f"preset: unknown {preset!r} (known: {', '.join(PRESETS)})")
+        raise ConfigError(f"preset: unknown {preset!r}" + (f"; did you mean '{suggestion(preset, PRESETS)}'?"
+                                                           if suggestion(preset, PRESETS) else "") +
+                          f" (known: {', '.join(list(PRESETS) + list(GNSS_RAW_PRESETS))})")
+    if PRESETS[preset] is None:
+        return spec
     n_cols = columns.read_table(spec, base_dir, stream).shape[1] if stream == "gnss" else None
     return PRESETS[preset](stream, spec, n_cols)
 
@@ -124,16 +131,21 @@ def _real_data(doc: dict, data_dir) -> dict:
     return doc
 
 
-def load_import(path, data_dir=None) -> dict:
-    """Read and check an import file: the tables (windowed) and the filter setup dict."""
+NOISE_CHOICES = ("check", "from-data")
+
+
+def load_import(path, data_dir=None, noise: str = "check") -> dict:
+    """Read and check an import file: the tables (windowed) and the filter
+    setup dict. ``noise``: ``check`` measures the IMU noise on the static
+    intervals against the configured densities (``core/noise_check.py``,
+    reported); ``from-data`` also adopts the suggested densities."""
     path = pathlib.Path(path)
     doc = yaml.safe_load(path.read_text())
     if not isinstance(doc, dict):
         raise ConfigError(f"{path}: expected a mapping")
     doc = _real_data(doc, data_dir)
-    unknown = sorted(set(doc) - KNOWN)
-    if unknown:
-        raise ConfigError(f"{unknown[0]}: unknown field (known: {', '.join(sorted(KNOWN))})")
+    columns.check_fields(doc, KNOWN, "import")
+    columns.check_fields(doc.get("report") or {}, {"skip_s"}, "report")
     base = path.parent
     if doc.get("preset") in GNSS_RAW_PRESETS:
         return load_raw_import(doc, base)
@@ -150,7 +162,16 @@ def load_import(path, data_dir=None) -> dict:
     if len(imu.t_s) < 2:
         raise ConfigError(f"imu: fewer than 2 IMU records in the window [{start}, {end}]")
     gnss_spec = _stream_spec(doc, "gnss", base)
-    gnss = columns.window(columns.fix_table(gnss_spec, base, "gnss"), imu.t_s[0], end) if gnss_spec else None
+    notes = []
+    gnss = None
+    if gnss_spec:
+        if doc.get("preset") == "rtklib":
+            gnss, text = rtklib_pos.fix_table(gnss_spec, base, "gnss")
+            notes.append(text)
+        else:
+            gnss = columns.fix_table(gnss_spec, base, "gnss")
+        check_overlap(imu.t_s, gnss.t_s)
+        gnss = columns.window(gnss, imu.t_s[0], end)
     if gnss is not None and gnss.pos_sigma_enu_m is None:
         raise ConfigError("gnss.sigma: required (position 1-sigma per axis)")
     truth_spec = _stream_spec(doc, "truth", base)
@@ -159,6 +180,7 @@ def load_import(path, data_dir=None) -> dict:
         raise ConfigError("truth: needs velocity and attitude columns")
     filt = _merge(filt, doc.get("filter") or {})
     _mounting_to_config(imu, filt)
+    noise_report = noise_check_of(imu, gnss, filt, doc.get("alignment"), noise)
     init = dict(filt.get("initial_state") or {})
     if not init and truth is not None:
         init = initial_from_truth(truth, imu.t_s[0])
@@ -177,7 +199,52 @@ def load_import(path, data_dir=None) -> dict:
     filt["initial_state"] = init
     setup = {"filter": filt, "report": {"skip_s": 0.0, **(doc.get("report") or {})}}
     FilterSetup.from_dict(_plain(setup))                     # validate now, naming the field
-    return {"imu": imu, "gnss": gnss, "truth": truth, "setup": _plain(setup), "window": (start, end)}
+    return {"imu": imu, "gnss": gnss, "truth": truth, "setup": _plain(setup), "window": (start, end), "notes": notes,
+            "noise_check": noise_report}
+
+
+def noise_check_of(imu, gnss, filt: dict, alignment_spec, noise: str = "check"):
+    """The IMU noise check (``core/noise_check.py``) of an imported table on
+    its static intervals (the alignment window, GNSS-static runs), against
+    the filter block's densities; with ``noise == 'from-data'`` the
+    suggestion replaces them in ``filt`` (aliases of the two fields dropped).
+    None when no static interval holds data."""
+    from hyper_nav_filter.core.config import PARAM_BY_NAME, FilterConfig
+
+    from .core import noise_check
+    if noise not in NOISE_CHOICES:
+        raise ConfigError(f"--noise: unknown {noise!r} (known: {', '.join(NOISE_CHOICES)})")
+    spec = _alignment_spec(alignment_spec)
+    cfg = FilterConfig.from_dict(dict(filt.get("config") or {}))
+    dt = np.diff(imu.t_s)
+    t = imu.t_s[1:]
+    iv = noise_check.static_intervals(t, spec.get("window_s", 5.0), None if gnss is None else gnss.t_s,
+                                      None if gnss is None else gnss.vel_enu_mps, spec.get("static_speed_mps", 0.3))
+    chk = noise_check.check(t, imu.dtheta_b_rad[1:] / dt[:, None], imu.dvel_b_mps[1:] / dt[:, None], cfg, iv)
+    if chk is not None and noise == "from-data":
+        c = filt.setdefault("config", {})
+        for name, value in chk.suggested().items():
+            for alias in [name] + [a.name for a in PARAM_BY_NAME[name].aliases]:
+                c.pop(alias, None)
+            c[name] = value
+        chk.notes.append("adopted (--noise from-data): the suggested densities are in filter.yaml")
+    return chk
+
+
+def check_overlap(imu_t_s, gnss_t_s) -> None:
+    """ConfigError when the IMU and GNSS time axes do not overlap: a counter
+    given as a time, seconds of week against continuous GPST, ms against s."""
+    i0, i1, g0, g1 = float(imu_t_s[0]), float(imu_t_s[-1]), float(gnss_t_s[0]), float(gnss_t_s[-1])
+    if i1 < g0 or g1 < i0:
+        gap = g0 - i1 if i1 < g0 else i0 - g1
+        hint = []
+        if abs(gap) > 1e8:
+            hint.append("one looks like continuous GPST (~1e9 s), the other not: seconds of week, or a counter "
+                        "(imu.time.tag / imu.time.map)?")
+        elif max(i1, g1) < 604800.0 * 1.01 and min(i0, g0) > 0 and abs(gap) < 604800.0:
+            hint.append("a constant offset (imu.time.offset_s) or a unit (imu.time.unit)?")
+        raise ConfigError(f"imu.time and gnss.time: disjoint time axes: IMU {i0:.3f} to {i1:.3f} s, GNSS {g0:.3f} to "
+                          f"{g1:.3f} s ({gap:.3f} s apart)" + (f"; {hint[0]}" if hint else ""))
 
 
 def _imu_spec(spec, where="imu") -> dict:
@@ -364,7 +431,12 @@ def write(imported: dict, out, per_message: bool = False) -> dict:
             topics["/truth/state"] = bc.truth_columns(truth)
         counts = write_arrays(out, topics)
     (out / "filter.yaml").write_text(yaml.safe_dump(imported["setup"], sort_keys=False))
+    if imported.get("noise_check") is not None:
+        (out / NOISE_FILE).write_text(yaml.safe_dump(_plain(imported["noise_check"].as_dict()), sort_keys=False))
     return counts
+
+
+NOISE_FILE = "noise_check.yaml"          # beside filter.yaml: the import's IMU noise check, shown by replay_filter
 
 
 def write_raw(imported: dict, out: pathlib.Path) -> dict:
@@ -393,9 +465,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="import_data", description=__doc__.split("\n\n")[0])
     ap.add_argument("import_file", help="import description (YAML), see the module docstring")
     ap.add_argument("--out", required=True, help="bag directory to create (must not exist)")
+    ap.add_argument("--noise", choices=NOISE_CHOICES, default="check",
+                    help="check: report the IMU noise measured on the static intervals against the configured "
+                         "densities (core/noise_check.py); from-data: also adopt the suggested densities "
+                         "(per axis max(configured, measured))")
     args = ap.parse_args(argv)
     try:
-        imported = load_import(args.import_file)
+        imported = load_import(args.import_file, noise=args.noise)
         counts = write(imported, args.out)
     except (ConfigError, FileExistsError, ValueError, OSError) as exc:
         print(f"import_data: error: {exc}", file=sys.stderr)
@@ -408,6 +484,14 @@ def main(argv=None) -> int:
               + ", ".join(f"{k} {v}" for k, v in sorted(g.counts.items())))
         for e in g.errors[:5]:
             print(f"[import_data] skipped: {e}")
+    for text in imported.get("notes", ()):
+        print(f"[import_data] {text}")
+    chk = imported.get("noise_check")
+    if chk is not None:
+        print("[import_data] " + chk.describe().replace("\n", "\n[import_data] "))
+    elif imported.get("gnss_raw") is None and imported["imu"] is not None:
+        print("[import_data] IMU noise: not measured (no static interval: the alignment window moves and no GNSS "
+              "standstill of 2 s or more); the configured densities are unchecked")
     imu = imported["imu"]
     if imu is not None:
         span = imu.t_s[-1] - imu.t_s[0]

@@ -49,6 +49,14 @@ MODE_NAMES = {MODE_INITIALIZING: "initializing", MODE_INS_ONLY: "INS only", MODE
 _COUPLING_MODE = {"tight": MODE_TIGHTLY_COUPLED, "loose": MODE_LOOSELY_COUPLED, "aiding": MODE_AIDED}
 MODE_WINDOW_S = 1.0            # a source counts toward the mode for this long after an accepted update
 _EPS_S = 1e-9
+
+
+def _tol(t: float) -> float:
+    """Stamp tolerance at t: 1 ns, or 4 ulps of t where 1 ns is below the
+    float's resolution (GPST or Unix stamps, ~1e9 s: 4 ulps = 1 us). Without
+    it an event stamped at an epoch that reached the engine before the
+    epoch's IMU sample was never applied at such stamps (t + 1e-9 == t)."""
+    return max(_EPS_S, 4.0 * math.ulp(t))
 _TRIM_CHUNK = 64               # epochs out of the window are dropped from memory this many at a time
 
 
@@ -241,7 +249,7 @@ class FusionEngine:
             return self._reject(f"{kind}_nan")
         if t <= self._window_start_s():
             return self._reject(f"{kind}_stale")
-        if t <= self._last_released_t + _EPS_S:
+        if t <= self._last_released_t + _tol(self._last_released_t):
             # still applied, but solutions already released did not see it:
             # a delay longer than output_delay_s (live and offline may differ)
             self.counters[f"{kind}_after_release"] += 1
@@ -249,9 +257,9 @@ class FusionEngine:
         key = (t, priority, kind, self._seq, event)
         bisect.insort(self._events, key)
         self.counters[f"{kind}_received"] += 1
-        if self._times and t <= self._times[-1] + _EPS_S:
-            j = bisect.bisect_left(self._times, t - _EPS_S)
-            if t < self._times[-1] - _EPS_S:
+        if self._times and t <= self._times[-1] + _tol(self._times[-1]):
+            j = bisect.bisect_left(self._times, t - _tol(t))
+            if t < self._times[-1] - _tol(self._times[-1]):
                 self.counters[f"{kind}_late"] += 1
             last = self._epochs[-1]
             if j == len(self._epochs) - 1 and self._at == j and self._dirty_from == math.inf \
@@ -348,9 +356,9 @@ class FusionEngine:
         ep = _Epoch(imu, None, prev.last_accept if prev else self._base_accept, extra_Q)
         self._epochs[k] = ep
         events = self._events
-        if events and events[-1][0] > t_prev + _EPS_S:
-            lo = bisect.bisect_right(events, (t_prev + _EPS_S,))
-            hi = bisect.bisect_right(events, (imu.t_s + _EPS_S,))
+        if events and events[-1][0] > t_prev + _tol(t_prev):
+            lo = bisect.bisect_right(events, (t_prev + _tol(t_prev),))
+            hi = bisect.bisect_right(events, (imu.t_s + _tol(imu.t_s),))
             events = events[lo:hi]
         else:
             events = ()                           # none in (t_prev, t]: no search
@@ -386,7 +394,7 @@ class FusionEngine:
         i = self._released
         while i < len(self._epochs):
             t = self._times[i]
-            if t > horizon + _EPS_S:
+            if t > horizon + _tol(horizon):
                 break
             if t >= self._t0_out + self._n_out / rate - 1e-6:
                 out.append(self._solution(self._epochs[i]))
@@ -443,7 +451,7 @@ class FusionEngine:
             self._at -= n_drop
             if self._dirty_from != math.inf:
                 self._dirty_from = max(0, self._dirty_from - n_drop)
-            cut = bisect.bisect_right(self._events, (self._base.t_s + _EPS_S,))
+            cut = bisect.bisect_right(self._events, (self._base.t_s + _tol(self._base.t_s),))
             del self._events[:cut]
 
     def _mode(self, ep: _Epoch) -> tuple[int, tuple]:

@@ -1,11 +1,11 @@
 """Declared fusion sources: converters from ROS messages to the core's
 measurements, IMU samples and model updates, registered by type name
 (``base`` explains the table). Types: imu, gnss_fix, gnss_vel, gnss_raw,
-baro_height, horizontal_fix, position_fix, model_update; other packages add
+baro_height, horizontal_fix, position_fix, model_update, zupt, nhc (land vehicles, ``land``); other packages add
 theirs through the entry-point group ``hyper_nav.sources`` (``load_plugins``)."""
 from __future__ import annotations
 
-from . import aiding, gnss, imu  # noqa: F401  (registration)
+from . import aiding, gnss, imu, land  # noqa: F401  (registration)
 from .base import (REGISTRY, SourceInput, SourceSpec, SourceType, load_plugins, make_sources, parse_sources,
                    spec_to_params, table_from_params)
 

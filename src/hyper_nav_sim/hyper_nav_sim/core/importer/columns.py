@@ -5,7 +5,7 @@ A stream (``imu``, ``gnss``, ``truth``) is described by a mapping::
     file: imu.csv              # path (relative to the import file)
     delimiter: ","             # optional; default: commas if the first data line has one, else whitespace
     skip_rows: 1               # header lines to skip (lines starting with '#' are always skipped)
-    time: {column: 0, unit: s}             # s | ms | us | ns
+    time: {column: 0, unit: s}             # s | ms | us | ns; optional (below): offset_s, tag, map
     # imu
     kind: increments           # increments (angle, velocity change per sample) | rates (rad/s, m/s^2)
     gyro: {columns: [1, 2, 3], unit: rad}  # increments: rad | deg; rates: rad/s | deg/s | deg/h
@@ -22,6 +22,20 @@ A stream (``imu``, ``gnss``, ``truth``) is described by a mapping::
     velocity: {columns: [7, 8, 9], frame: NED}          # optional, m/s
     vel_sigma: {columns: [10, 11, 12], frame: NED}      # optional
     attitude: {columns: [8, 9, 10], unit: deg}          # truth: roll, pitch, heading (aerospace angles)
+
+Time: ``offset_s`` is added to every stamp of the stream (an IMU whose
+stamps lag GNSS time by 12 ms: ``offset_s: 0.012``). A counter instead of a
+time: ``tag: log.tag`` maps a logger's millisecond tick (``unit`` ms) through
+an RTKLIB time-tag file to GPST (``time_tags``: seconds since 1980-01-06,
+the ``.pos`` time axis); ``map: {file: counter.csv, columns: [0, 1], unit: s}``
+maps any counter through a (counter, time) table, linearly.
+
+Frames of velocities and sigmas: any order of three axes from E/W, N/S, U/D
+(``ENU``, ``NED``, ``NEU``, ``NWU``, ...): each letter names the direction
+of that column's positive axis.
+
+Every field of a description is checked: an unknown one is refused with the
+closest known name (``core.fields``), never ignored.
 
 Columns count from 0. Every unit and frame is converted here, once
 (STYLE pattern 6); what leaves this module is SI, body FLU, ENU.
@@ -65,6 +79,8 @@ from hyper_nav_filter.core import units
 from hyper_nav_filter.core.earth import G0_MPS2
 from hyper_nav_filter.core.params import ConfigError
 
+from ..fields import unknown_field
+
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 RATE_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "deg/h": float(units.deg_per_hr(1.0))}
@@ -76,6 +92,49 @@ SPEED_UNITS = {"m/s": 1.0}
 BODY_TO_FLU = {"FLU": np.eye(3), "FRD": np.diag([1.0, -1.0, -1.0]),
                "RFU": np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])}
 NAV_TO_ENU = {"ENU": np.eye(3), "NED": np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])}
+_AXIS_ENU = {"E": (0, 1.0), "W": (0, -1.0), "N": (1, 1.0), "S": (1, -1.0), "U": (2, 1.0), "D": (2, -1.0)}
+_COMMON = {"file", "delimiter", "skip_rows", "time"}
+IMU_FIELDS = _COMMON | {"kind", "gyro", "accel", "body", "mounting", "antenna_lever_arm_m", "max_gap_s"}
+FIX_FIELDS = _COMMON | {"lat", "lon", "alt", "sigma", "velocity", "vel_sigma", "attitude"}
+TIME_FIELDS = {"column", "unit", "offset_s", "tag", "map"}
+COLUMN_FIELDS = {"column", "columns", "unit", "frame"}
+MAP_FIELDS = {"file", "columns", "unit", "delimiter", "skip_rows"}
+
+
+def check_fields(spec: dict, known, where: str) -> None:
+    """ConfigError naming the first field of ``spec`` not in ``known``, with
+    the closest known name (``core.fields.unknown_field``)."""
+    for key in spec:
+        if key not in known:
+            raise ConfigError(unknown_field(f"{where}.", key, known))
+
+
+def _check_stream(spec: dict, known, where: str) -> None:
+    """The stream's own fields and those of its column fields (time, gyro, lat, ...)."""
+    check_fields(spec, known, where)
+    for name, f in spec.items():
+        if name == "time" and isinstance(f, dict):
+            check_fields(f, TIME_FIELDS, f"{where}.time")
+            if isinstance(f.get("map"), dict):
+                check_fields(f["map"], MAP_FIELDS, f"{where}.time.map")
+        elif name not in ("mounting",) and isinstance(f, dict):
+            check_fields(f, COLUMN_FIELDS, f"{where}.{name}")
+
+
+def nav_axes(name, where: str) -> np.ndarray:
+    """v_ENU = M v of a navigation-frame axis order (module docstring):
+    three letters from E/W, N/S, U/D, one per direction."""
+    if name in NAV_TO_ENU:
+        return NAV_TO_ENU[name]
+    text = str(name).upper()
+    axes = [_AXIS_ENU.get(c) for c in text]
+    if len(text) != 3 or None in axes or sorted(a[0] for a in axes) != [0, 1, 2]:
+        raise ConfigError(f"{where}: unknown frame {name!r} (three axes from E/W, N/S, U/D, one each: "
+                          f"ENU, NED, NEU, NWU, ...)")
+    M = np.zeros((3, 3))
+    for col, (row, sign) in enumerate(axes):
+        M[row, col] = sign
+    return M
 
 
 @dataclass
@@ -195,9 +254,37 @@ def _field(spec: dict, name: str, where: str, required: bool = True) -> dict | N
     return f
 
 
-def _time(data, spec, where) -> np.ndarray:
+def stamps(data, spec, where, base_dir=None) -> np.ndarray:
+    """The stream's time column in seconds: unit, then a counter mapped
+    through ``tag`` (RTKLIB time-tag file, ms ticks) or ``map`` (a table),
+    then ``offset_s`` (module docstring)."""
+    from . import time_tags
     f = _field(spec, "time", where)
     t = _cols(data, f, 1, f"{where}.time") * _unit(TIME_UNITS, f.get("unit", "s"), f"{where}.time")
+    base = pathlib.Path(base_dir or ".")
+    if f.get("tag") is not None and f.get("map") is not None:
+        raise ConfigError(f"{where}.time: 'tag' and 'map' both given (one mapping of the counter)")
+    if f.get("tag") is not None:
+        path = pathlib.Path(f["tag"])
+        tag = time_tags.read_tag(path if path.is_absolute() else base / path, f"{where}.time.tag")
+        t = tag.gpst_of_ticks(t * 1e3)
+    elif f.get("map") is not None:
+        m = f["map"]
+        if not isinstance(m, dict) or "file" not in m:
+            raise ConfigError(f"{where}.time.map: expected a mapping with 'file' (and 'columns', 'unit')")
+        table = read_table(m, base, f"{where}.time.map", {})
+        cols = m.get("columns", [0, 1])
+        tab = _cols(table, {"columns": cols}, 2, f"{where}.time.map")
+        tab = np.column_stack([tab[:, 0], tab[:, 1] * _unit(TIME_UNITS, m.get("unit", "s"), f"{where}.time.map")])
+        t = time_tags.map_counter(_cols(data, f, 1, f"{where}.time"), tab, f"{where}.time.map")
+    off = f.get("offset_s", 0.0)
+    if not _is_num(off) or not math.isfinite(off):
+        raise ConfigError(f"{where}.time.offset_s: expected a number (s), got {off!r}")
+    return t + float(off)
+
+
+def _time(data, spec, where, base_dir=None) -> np.ndarray:
+    t = stamps(data, spec, where, base_dir)
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
         raise ConfigError(f"{where}.time: not increasing at data row {k + 1} ({float(t[k])!r} -> {float(t[k + 1])!r})")
@@ -239,10 +326,9 @@ def _is_num(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
-def _imu_time(data, spec, where):
+def _imu_time(data, spec, where, base_dir=None):
     """Stamps with logged duplicates removed: (t, kept row mask, duplicate rows 1-based)."""
-    f = _field(spec, "time", where)
-    t = _cols(data, f, 1, f"{where}.time") * _unit(TIME_UNITS, f.get("unit", "s"), f"{where}.time")
+    t = stamps(data, spec, where, base_dir)
     max_gap = spec.get("max_gap_s", 1.0)
     if not _is_num(max_gap) or not max_gap > 0:
         raise ConfigError(f"{where}.max_gap_s: expected a positive number (s), got {max_gap!r}")
@@ -274,8 +360,9 @@ def imu_table(spec: dict, base_dir, where: str = "imu") -> ImuTable:
     """IMU samples as body-FLU increments (rates are integrated over the
     stamp differences: increment = rate x (t[k] - t[k-1]), the sensor_msgs/Imu
     convention of this project); mounting and timing as the module docstring says."""
+    _check_stream(spec, IMU_FIELDS, where)
     data = read_table(spec, base_dir, where)
-    t, keep, dups = _imu_time(data, spec, where)
+    t, keep, dups = _imu_time(data, spec, where, base_dir)
     data = data[keep]
     kind = spec.get("kind", "increments")
     if kind not in ("increments", "rates"):
@@ -307,8 +394,9 @@ def imu_table(spec: dict, base_dir, where: str = "imu") -> ImuTable:
 
 def fix_table(spec: dict, base_dir, where: str) -> FixTable:
     """Positions (and optional velocities, sigmas, attitude) of a GNSS or truth file."""
+    _check_stream(spec, FIX_FIELDS, where)
     data = read_table(spec, base_dir, where)
-    t = _time(data, spec, where)
+    t = _time(data, spec, where, base_dir)
     out = {}
     for name in ("lat", "lon"):
         f = _field(spec, name, where)
@@ -322,7 +410,7 @@ def fix_table(spec: dict, base_dir, where: str) -> FixTable:
         if f is not None:
             v = _cols(data, f, 3, f"{where}.{name}") * _unit(table, f.get("unit", "m" if table is LENGTH_UNITS
                                                                               else "m/s"), f"{where}.{name}")
-            P = _frame(NAV_TO_ENU, f.get("frame", "ENU"), f"{where}.{name}.frame")
+            P = nav_axes(f.get("frame", "ENU"), f"{where}.{name}.frame")
             v = v @ P.T
             setattr(tab, attr, np.abs(v) if "sigma" in name else v)
     f = _field(spec, "attitude", where, required=False)
