@@ -21,6 +21,26 @@ Writes ``<out>/`` (``<out>.mcap`` + ``metadata.yaml``: imu/data_raw,
 gnss/fix, gnss/vel when the GNSS file has velocities, truth/state) and
 ``<out>/filter.yaml``, the validated filter setup ``replay_filter`` uses.
 
+An RTKLIB solution as the GNSS input (``preset: rtklib``,
+``core/importer/rtklib_pos.py``): the ``gnss`` block names a ``.pos`` file
+(``%`` header, GPST date and time, Q, sdn/sde/sdu, vn/ve/vu), with
+``quality`` (the Q values kept) and ``sigma_scale`` (a factor on the sigmas
+per Q), both stated at import; its time axis is continuous GPST, so the IMU
+needs GPST stamps too: a logger's millisecond tick maps through an RTKLIB
+time-tag file (``imu.time: {column: 0, unit: ms, tag: rover.ubx.tag}``) or
+a counter table (``imu.time.map``), ``imu.time.offset_s`` shifts the IMU's
+stamps (``core/importer/columns.py``). IMU and GNSS time axes that do not
+overlap are an error naming both spans. Every field of the description is
+checked: an unknown one is refused with the closest known name.
+
+IMU noise (``core/noise_check.py``): on the static intervals (the alignment
+window, GNSS standstills) the IMU's white noise is measured (Allan
+deviation where an interval holds 10 s, else the raw scatter) and printed
+against the configured densities, with a suggested configuration; it is
+saved as ``<out>/noise_check.yaml`` for ``replay_filter``.
+``--noise from-data`` adopts the suggestion (per axis max(configured,
+measured)) in filter.yaml.
+
 Real receiver data (``preset: ubx`` or ``preset: rinex``,
 ``core/importer/gnss_raw.py``): the ``gnss`` block names a u-blox UBX log
 or RINEX 3 observation + navigation files, and the bag gets ``gnss/raw``
