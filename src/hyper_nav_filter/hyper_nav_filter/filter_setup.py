@@ -21,7 +21,7 @@ import yaml
 from .core.config import FilterConfig
 from .core.initial_state import from_block
 from .core.nav_state import NavState
-from .core.params import ConfigError
+from .core.params import ConfigError, suggest
 from .sources import DEFAULT_TABLE, make_sources, parse_sources
 
 
@@ -40,7 +40,14 @@ class FilterSetup:
         f = data["filter"]
         unknown = sorted(set(f) - {"config", "sources", "initial_state"})
         if unknown:
-            raise ConfigError(f"{where}filter.{unknown[0]}: unknown field (known: config, sources, initial_state)")
+            raise ConfigError(f"{where}filter.{unknown[0]}: unknown field"
+                              f"{suggest(str(unknown[0]), ('config', 'sources', 'initial_state'))}")
+        unknown = sorted(set(data) - {"filter", "report"})
+        if unknown:
+            raise ConfigError(f"{where}{unknown[0]}: unknown field{suggest(str(unknown[0]), ('filter', 'report'))}")
+        unknown = sorted(set(data.get("report") or {}) - {"skip_s"})
+        if unknown:
+            raise ConfigError(f"{where}report.{unknown[0]}: unknown field{suggest(str(unknown[0]), ('skip_s',))}")
         cfg = FilterConfig.from_dict(f.get("config") or {})
         table = f.get("sources") or DEFAULT_TABLE
         make_sources(parse_sources(table), cfg)

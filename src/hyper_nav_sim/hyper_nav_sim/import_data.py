@@ -324,9 +324,7 @@ def load_raw_import(doc: dict, base: pathlib.Path) -> dict:
 
 def _alignment_spec(spec) -> dict:
     spec = dict(spec or {})
-    unknown = sorted(set(spec) - ALIGNMENT_KNOWN)
-    if unknown:
-        raise ConfigError(f"alignment.{unknown[0]}: unknown field (known: {', '.join(sorted(ALIGNMENT_KNOWN))})")
+    columns.check_fields(spec, ALIGNMENT_KNOWN, "alignment")
     for k, v in spec.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
             raise ConfigError(f"alignment.{k}: expected a number >= 0, got {v!r}")

@@ -90,9 +90,10 @@ def time_offset_s(axis: str, epochs) -> float:
 
 def read_gnss(preset: str, spec: dict, base_dir, where: str = "gnss") -> GnssImport:
     """Read the ``gnss`` block of a ``ubx`` or ``rinex`` import (module docstring)."""
+    from ..fields import unknown_field
     unknown = sorted(set(spec) - KNOWN)
     if unknown:
-        raise ConfigError(f"{where}.{unknown[0]}: unknown field (known: {', '.join(sorted(KNOWN))})")
+        raise ConfigError(unknown_field(f"{where}.", unknown[0], KNOWN))
     t0 = time.perf_counter()
     if preset == "ubx":
         from hyper_nav_filter.core.gnss.ubx import read_ubx
