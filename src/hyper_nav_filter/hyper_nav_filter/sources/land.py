@@ -9,9 +9,10 @@ IMU's own topic; none is in a default table (flight has neither)::
 
 * ``zupt``: zero-velocity update at each IMU epoch the standstill detector
   accepts (at most ``rate_hz``);
-* ``nhc``: the non-holonomic constraint at ``rate_hz`` while the vehicle
-  moves (it is not applied at the epochs ``zupt`` would take: both need the
-  same standstill thresholds only when both are declared).
+* ``nhc``: the non-holonomic constraint at ``rate_hz``, moving or not (a
+  standing car has no lateral or vertical velocity either; and an IMU
+  cannot tell a constant-velocity drive from a standstill, so no
+  standstill test gates it).
 
 Each IMU message reaches the ``imu`` source first (declared order), which
 advances the filter to its epoch; the constraint is then queued at that
@@ -37,8 +38,6 @@ class _OnImu(SourceType):
 
     def __init__(self, spec, cfg=None):
         super().__init__(spec, cfg)
-        self.detector = StandstillDetector(self.p["window_s"], self.p["gyro_max_deg_per_s"],
-                                           self.p["accel_std_max_mps2"])
         self._next_t = -float("inf")
 
     def _due(self, t: float) -> bool:
@@ -57,6 +56,11 @@ class ZuptSource(_OnImu):
         positive("rate_hz", FLOAT, 10.0, "at most this many updates per second"),
     )
 
+    def __init__(self, spec, cfg=None):
+        super().__init__(spec, cfg)
+        self.detector = StandstillDetector(self.p["window_s"], self.p["gyro_max_deg_per_s"],
+                                           self.p["accel_std_max_mps2"])
+
     def convert(self, role, msg, engine):
         t, w, f = imu_rates(msg)
         if not self.detector.add(t, w, f):
@@ -72,15 +76,14 @@ class ZuptSource(_OnImu):
 class NhcSource(_OnImu):
     TYPE = "nhc"
     DESCRIPTION = "non-holonomic constraint: zero lateral and vertical body velocity (land vehicles)"
-    PARAMS = _DETECTOR + (
+    PARAMS = (
         positive("sigma_mps", FLOAT, 0.1, "1-sigma of the lateral and vertical body velocity (m/s)"),
         positive("rate_hz", FLOAT, 10.0, "updates per second"),
     )
 
     def convert(self, role, msg, engine):
-        t, w, f = imu_rates(msg)
-        still = self.detector.add(t, w, f)
-        if still or not self._due(t):
+        t, _, _ = imu_rates(msg)
+        if not self._due(t):
             return None
         self.counters["processed main: nhc"] += 1
         return self._queued(engine.add_measurement(NonHolonomic(t, self.p["sigma_mps"] ** 2)))
