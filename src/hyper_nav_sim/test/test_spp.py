@@ -7,6 +7,7 @@ import importlib.util
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import yaml
@@ -67,3 +68,63 @@ def test_spp_bad_description_exits_2(tmp_path, capsys):
     f.write_text(yaml.safe_dump({"preset": "rinex", "gnss": {"file": "x.crx"}, "spp": {"runz": {}}}))
     assert main([str(f)]) == 2
     assert "spp.runz: unknown field" in capsys.readouterr().err
+
+
+def test_spp_help_documents_every_option(capsys):
+    from hyper_nav_sim.spp import parser
+    ap = parser()
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = capsys.readouterr().out
+    for a in ap._actions:
+        for opt in a.option_strings:
+            assert opt in text
+        if a.option_strings:
+            assert a.help, a.option_strings
+    for word in ("OBS NAV", ".pos", "NMEA", "KML", "GPX", "--ref", "header", "Hatanaka", "RINEX 2.11", "4.0x"):
+        assert word in text
+
+
+def test_spp_on_files_directly(tmp_path, capsys, monkeypatch):
+    """``spp OBS NAV`` on the shared TLSE files, no description: the header's
+    position as reference (marker + antenna height), positions written in
+    every format; the .pos reads back in the importer's reader with the
+    positions of the CSV; the zipped navigation file reads the same; a
+    navigation file with no record fails with its name."""
+    import zipfile
+
+    from hyper_nav_sim.core.importer.rtklib_pos import read_pos
+    obs, nav = rd.real_file(rd.TLSE_OBS), rd.real_file(rd.TLSE_NAV)
+    monkeypatch.chdir(tmp_path)
+    assert main([str(obs), str(nav), "--short", "20", "--ref", "header"]) == 0
+    out = capsys.readouterr().out
+    d = tmp_path / "spp_TLSE00FRA_R_20240011200_15M_01S_MO"           # default: the current directory
+    assert "ANTENNA: DELTA H/E/N" in out
+    doc = json.loads((d / "spp.json").read_text())
+    r = doc["runs"]["dual_frequency"]
+    assert r["ours_all"]["epochs"] == 20
+    assert r["ours_all"]["horizontal_rms_m"] < 1.0 and r["ours_all"]["vertical_rms_m"] < 2.0
+    stem = "TLSE00FRA_R_20240011200_15M_01S_MO"
+    pos = read_pos(d / f"{stem}.pos")
+    assert len(pos.t_gpst_s) == 20 and np.all(pos.quality == 5)
+    rows = (d / f"{stem}.csv").read_text().splitlines()
+    head = rows[0].split(",")
+    first = dict(zip(head, rows[1].split(",")))
+    assert abs(float(first["lat_deg"]) - np.rad2deg(pos.lat_rad[0])) < 1e-9
+    assert float(first["height_m"]) == pytest.approx(pos.alt_m[0], abs=1e-4)
+    assert first["used"].count("G") >= 8 and first["clock_reference_system"] == "G"
+    for ext in ("nmea", "kml", "gpx"):
+        assert (d / f"{stem}.{ext}").stat().st_size > 1000
+    # the navigation file zipped: the same solution
+    with zipfile.ZipFile(tmp_path / "nav.zip", "w", zipfile.ZIP_DEFLATED) as z:
+        import gzip
+        z.writestr("BRDC.rnx", gzip.decompress(nav.read_bytes()))
+    assert main([str(obs), str(tmp_path / "nav.zip"), "--short", "20", "--out", str(tmp_path / "z"),
+                 "--formats", "pos"]) == 0
+    assert (tmp_path / "z" / f"{stem}.pos").read_text().splitlines()[-20:] == \
+        (d / f"{stem}.pos").read_text().splitlines()[-20:]
+    # a navigation file that yields no record: exit 2, the file named
+    (tmp_path / "empty.zip").write_bytes(b"")
+    capsys.readouterr()
+    assert main([str(obs), str(tmp_path / "empty.zip"), "--short", "5", "--out", str(tmp_path / "e")]) == 2
+    assert "empty.zip: empty file" in capsys.readouterr().err

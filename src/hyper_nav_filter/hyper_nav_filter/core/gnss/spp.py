@@ -226,10 +226,12 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     return sol
 
 
-def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None) -> list[SppSolution]:
-    """SPP of every epoch, each started from the previous valid solution."""
+def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None) -> list[SppSolution]:
+    """SPP of every epoch, each started from the previous valid solution (the
+    first from ``x0`` = [x, y, z, b], e.g. a RINEX header's approximate
+    position; None = the Earth's centre)."""
     counters = counters if counters is not None else Counter()
-    out, x0 = [], None
+    out = []
     for raw in epochs:
         s = solve_epoch(raw, store, cfg, x0, counters)
         out.append(s)
