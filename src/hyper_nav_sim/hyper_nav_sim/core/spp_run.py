@@ -342,8 +342,17 @@ def run_config(doc: dict, name: str, run: dict) -> spp_core.SppConfig:
     return spp_core.SppConfig(model, p_fa=float(s.get("p_fa", 1e-3)), max_exclusions=int(s.get("max_exclusions", 4)))
 
 
+class _PostProcessingStore(EphemerisStore):
+    """Every record of the navigation files known from the start (post
+    processing, as RTKLIB reads a navigation file): ``records_of`` skips the
+    per-call filter on reception time (14 % of the solve time in the profile)."""
+
+    def records_of(self, system: str, prn: int, received_by_s: float = float("inf")) -> list:
+        return self._by_sat.get((system, int(prn)), [])
+
+
 def run_ours(inp: SppInput, cfg: spp_core.SppConfig) -> tuple[list, Counter, float]:
-    store = EphemerisStore()
+    store = _PostProcessingStore()          # records are added below with no reception time: the same choice
     counts = Counter()
     for e in inp.records:
         try:

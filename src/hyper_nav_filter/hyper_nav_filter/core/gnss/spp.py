@@ -212,7 +212,8 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     N = H.T @ (H * W[:, None])
     cov = np.linalg.inv(N)
     # residuals and geometry of every satellite at the final solution (excluded and masked ones too)
-    full = corrected_at(obs, r, x[3], cfg.model, states)
+    # (without an exclusion the last Gauss-Newton evaluation is already this one: same satellites, x)
+    full = cor if not excluded else corrected_at(obs, r, x[3], cfg.model, states)
     rs = np.einsum("kij,kj->ki", full.rot, full.r_sat_e_m)
     rho = np.linalg.norm(r - rs, axis=1)
     clk = np.array([x[3] + (x[3 + systems.index(c.system)] if c.system in systems and
