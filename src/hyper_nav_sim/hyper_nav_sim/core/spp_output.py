@@ -63,15 +63,26 @@ def _time_str(d: _dt.datetime, decimals: int = 3) -> str:
     return f"{d:%Y/%m/%d %H:%M}:{s:0{3 + decimals}.{decimals}f}"
 
 
+def _llh_rad(sol):
+    """(lat, lon, h) [rad, rad, m] of a solution, computed once per solution
+    (every writer asks: the profile showed 8 conversions an epoch)."""
+    got = sol.__dict__.get("_llh_cache")
+    if got is None or got[0] is not sol.pos_ecef_m:
+        lat, lon, h = earth.ecef_to_geodetic(np.asarray(sol.pos_ecef_m, float))
+        got = (sol.pos_ecef_m, float(lat), float(earth.wrap_lon_rad(lon)), float(h))
+        sol.__dict__["_llh_cache"] = got
+    return got[1:]
+
+
 def geodetic(sol) -> tuple[float, float, float]:
     """(lat_deg, lon_deg, h_m) of a solution."""
-    lat, lon, h = earth.ecef_to_geodetic(np.asarray(sol.pos_ecef_m, float))
-    return math.degrees(float(lat)), math.degrees(float(earth.wrap_lon_rad(lon))), float(h)
+    lat, lon, h = _llh_rad(sol)
+    return math.degrees(lat), math.degrees(lon), h
 
 
 def cov_enu(sol) -> np.ndarray:
     """The position covariance in ENU at the solution [m^2]."""
-    lat, lon, _ = earth.ecef_to_geodetic(np.asarray(sol.pos_ecef_m, float))
+    lat, lon, _ = _llh_rad(sol)
     C = earth.C_n_e(lat, lon)                      # ENU -> ECEF
     return C.T @ np.asarray(sol.cov_ecef_m2, float) @ C
 
