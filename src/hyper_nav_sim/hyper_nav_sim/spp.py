@@ -114,7 +114,7 @@ def plots(result: dict, out: pathlib.Path) -> list[str]:
         for i, lab in enumerate(("east", "north", "up")):
             ax[i].plot(t, e[:, i], lw=0.8, label="hyper-nav SPP")
             if rk is not None:
-                ax[i].plot(t, rk[:, i], lw=0.8, alpha=0.7, label="RTKLIB pntpos")
+                ax[i].plot(t, rk[:, i], lw=0.8, alpha=0.7, label=f"RTKLIB {r.get('rtklib', {}).get('engine', 'pntpos')}")
             ax[i].set_ylabel(f"{lab} error [m]")
             ax[i].grid(alpha=0.3)
         st = r.get("ours_same_epochs", {})

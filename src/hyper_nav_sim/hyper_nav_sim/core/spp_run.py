@@ -147,7 +147,8 @@ def plan_codes(runs: dict) -> dict:
 def read_files(obs_path, nav_paths, runs: dict, max_epochs: int | None = None) -> SppInput:
     """A RINEX observation file and one or more navigation files, as archives
     hold them (2.xx, 3.0x, 4.0x; gzip, .Z, zip, Hatanaka): the epochs of the
-    codes the ``runs`` use, every GPS/Galileo/BDS/QZSS broadcast record and
+    codes the ``runs`` use (pseudoranges and C/N0: positions need no phase
+    or Doppler), every GPS/Galileo/BDS/QZSS broadcast record and
     the Klobuchar sets (the first file that has a system's set gives it).
     Refused (ConfigError naming the file): a file that does not exist, is
     not RINEX of the right type and version, or yields no epoch / no record."""
@@ -159,7 +160,7 @@ def read_files(obs_path, nav_paths, runs: dict, max_epochs: int | None = None) -
         if not p.is_file():
             raise ConfigError(f"{p}: no such file")
     try:
-        obs = read_rinex_obs(obs_path, signals=plan_codes(runs), max_epochs=max_epochs)
+        obs = read_rinex_obs(obs_path, signals=plan_codes(runs), max_epochs=max_epochs, observables="S")
     except ValueError as exc:
         raise ConfigError(f"observation file {exc}") from None
     if not obs.epochs:

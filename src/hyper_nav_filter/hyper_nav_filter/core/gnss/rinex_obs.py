@@ -233,7 +233,7 @@ def _frequency(sysc: str, code: str, prn: int, header: dict) -> float:
     return frequency_hz(sysc, code) if has_frequency(sysc, code) else np.nan
 
 
-def _plan(obs: RinexObs, signals) -> dict:
+def _plan(obs: RinexObs, signals, observables: str = "CLDS") -> dict:
     """{system: [(code, iC, iL, iD, iS)]} column indices of the kept signals."""
     plan = {}
     for sysc, types in obs.header["obs_types"].items():
@@ -251,7 +251,7 @@ def _plan(obs: RinexObs, signals) -> dict:
             codes = [c for c in codes if c in wanted]
         rows = []
         for c in codes:
-            idx = {t: (types.index(t + c) if (t + c) in types else -1) for t in "CLDS"}
+            idx = {t: (types.index(t + c) if (t + c) in types and t in observables else -1) for t in "CLDS"}
             rows.append((c, idx["C"], idx["L"], idx["D"], idx["S"]))
         if rows:
             plan[sysc] = rows
@@ -266,8 +266,11 @@ def _field(line: str, k: int):
     return (float(v) if v else np.nan), (int(lli) if lli.isdigit() else 0)
 
 
-def read_rinex_obs(path, signals=None, max_epochs: int | None = None) -> RinexObs:
-    """Read a RINEX 3 observation file (see the module docstring)."""
+def read_rinex_obs(path, signals=None, max_epochs: int | None = None, observables: str = "CLDS") -> RinexObs:
+    """Read a RINEX observation file (see the module docstring).
+    ``observables``: the observation kinds read besides the code C (e.g.
+    ``"CS"``: code and C/N0 only, for single-point positioning: a third less
+    parsing; phases and Dopplers are then NaN)."""
     obs = RinexObs()
     lines = read_text(path).splitlines()
     v = rinex_version(lines, path)
@@ -281,7 +284,7 @@ def read_rinex_obs(path, signals=None, max_epochs: int | None = None) -> RinexOb
     obs.header["version"] = v.version
     if obs.header.get("time_system", "GPS") not in ("GPS", ""):
         raise ValueError(f"{Path(path).name}: time system {obs.header['time_system']} (only GPS time is read)")
-    plan = _plan(obs, signals)
+    plan = _plan(obs, signals, "C" + observables)
     dbhz = obs.header["signal_strength_unit"] in ("DBHZ", "")
     name = Path(path).name
     n_lines = len(lines)
