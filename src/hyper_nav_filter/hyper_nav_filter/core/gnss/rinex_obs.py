@@ -318,8 +318,16 @@ def read_rinex_obs(path, signals=None, max_epochs: int | None = None, observable
     return obs
 
 
+def _value(ln: str, k: int) -> float:
+    """F14.3 value of observation field k of a satellite line (NaN when blank)."""
+    v = ln[3 + 16 * k:17 + 16 * k].strip()
+    return float(v) if v else np.nan
+
+
 def _epoch(t, body, plan, dbhz, obs, name, first_line) -> RawGnssEpoch | None:
     sysl, prn, code, pr, cp, dop, cn0, flags, freq = [], [], [], [], [], [], [], [], []
+    fcache = obs.__dict__.setdefault("_freq_cache", {})
+    nan = np.nan
     for j, ln in enumerate(body):
         sysc = ln[:1]
         rows = plan.get(sysc)
@@ -328,28 +336,36 @@ def _epoch(t, body, plan, dbhz, obs, name, first_line) -> RawGnssEpoch | None:
         try:
             p = int(ln[1:3])
             for c, iC, iL, iD, iS in rows:
-                v, _ = _field(ln, iC)
-                if not np.isfinite(v):
+                v = _value(ln, iC)
+                if v != v:                                  # NaN: no code observation
                     continue
-                lv, lli = _field(ln, iL) if iL >= 0 else (np.nan, 0)
-                dv, _ = _field(ln, iD) if iD >= 0 else (np.nan, 0)
-                sv, _ = _field(ln, iS) if iS >= 0 else (np.nan, 0)
+                if iL >= 0:
+                    lv, lli = _field(ln, iL)
+                else:
+                    lv, lli = nan, 0
+                dv = _value(ln, iD) if iD >= 0 else nan
+                sv = _value(ln, iS) if iS >= 0 else nan
                 fl = TRACK_PR_VALID
-                if np.isfinite(lv) and not (lli & 1):
-                    fl |= TRACK_CP_VALID
-                if np.isfinite(lv) and not (lli & 2):
-                    fl |= TRACK_HALF_CYCLE
-                if np.isfinite(dv):
+                if lv == lv:
+                    if not (lli & 1):
+                        fl |= TRACK_CP_VALID
+                    if not (lli & 2):
+                        fl |= TRACK_HALF_CYCLE
+                if dv == dv:
                     fl |= TRACK_DOPPLER_VALID
+                key = (sysc, c, p if sysc == "R" else 0)
+                fr = fcache.get(key)
+                if fr is None:
+                    fr = fcache[key] = _frequency(sysc, c, p, obs.header)
                 sysl.append(sysc)
                 prn.append(p)
                 code.append(c)
                 pr.append(v)
                 cp.append(lv)
                 dop.append(dv)
-                cn0.append(sv if dbhz else np.nan)
+                cn0.append(sv if dbhz else nan)
                 flags.append(fl)
-                freq.append(_frequency(sysc, c, p, obs.header))
+                freq.append(fr)
         except ValueError as exc:
             obs.error(f"{name} line {first_line + j + 1} ({ln[:3]}): {exc}")
             continue
