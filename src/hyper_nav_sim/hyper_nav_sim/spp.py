@@ -24,7 +24,9 @@ current directory; one set per mode, ``<name>_<mode>.<ext>``): ``.pos``
 position, sigmas, receiver clock and inter-system biases, DOPs, satellites
 used / excluded by RAIM with the w-test / below the mask, RAIM statistic),
 ``.nmea`` (GGA, RMC, GSA, GST), ``.kml``, ``.gpx``; ``spp.json``
-(settings, counts, statistics); PNGs with ``--plots``.
+(settings, counts, statistics); PNGs with ``--plots``; with ``--fix-bag
+DIR`` an MCAP bag of sensor_msgs/NavSatFix on /gnss/fix (also from
+``--bag``: the bag's raw data in, NavSatFix out).
 
 Exit 0, or 2 for bad input (a file that is not RINEX, an unknown version or
 record, a file that yields nothing: the message names the file, the line
@@ -220,6 +222,10 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--no-plots", action="store_true", help="campaign: no PNGs")
     ap.add_argument("--short", type=int, default=None, metavar="N", help="only the first N epochs")
     ap.add_argument("--bag", help="a bag with gnss/raw and gnss/ephemeris instead of files")
+    ap.add_argument("--fix-bag", metavar="DIR",
+                    help="also write the solutions as sensor_msgs/NavSatFix on /gnss/fix into an MCAP bag DIR "
+                         "(stamps: GPST as seconds since 1970; full ENU covariance): for the player and the "
+                         "fusion node's gnss source (first run when several)")
     ap.add_argument("--reference-xyz", nargs=3, type=float, help="reference point (ECEF, m) for a bag")
     ap.add_argument("--data-dir", default=None,
                     help="campaign: the folder holding the shared recordings (default $HYPER_NAV_SHARED/real-data "
@@ -375,6 +381,11 @@ def main(argv=None) -> int:
     if direct:
         hdr = {"inp file": " ".join(str(pathlib.Path(f).name) for f in args.files)}
         written += write_outputs(result, out, name, formats, hdr)
+    if args.fix_bag:
+        from .core.spp_output import write_fix_bag
+        first = next(iter(result["runs"].values()))
+        n = write_fix_bag(args.fix_bag, first.get("_solutions") or [])
+        written.append(f"{args.fix_bag} (/gnss/fix NavSatFix: {n})")
     if (direct and args.plots) or (not direct and not args.no_plots):
         written += plots(result, out)
     (out / "spp.json").write_text(json.dumps(_clean(result), indent=1, default=_json_default))

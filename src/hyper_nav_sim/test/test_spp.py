@@ -123,6 +123,17 @@ def test_spp_on_files_directly(tmp_path, capsys, monkeypatch):
                  "--formats", "pos"]) == 0
     assert (tmp_path / "z" / f"{stem}.pos").read_text().splitlines()[-20:] == \
         (d / f"{stem}.pos").read_text().splitlines()[-20:]
+    # the same solutions as NavSatFix in an MCAP bag, read back with the project's bag reader
+    from hyper_nav_sim.core.bag import deserialize, read_bag
+    assert main([str(obs), str(nav), "--short", "20", "--out", str(tmp_path / "b"), "--formats", "pos",
+                 "--fix-bag", str(tmp_path / "fixbag")]) == 0
+    fixes = [deserialize(r.raw, r.msgtype) for r in read_bag(tmp_path / "fixbag", ["/gnss/fix"])]
+    assert len(fixes) == 20
+    f0 = fixes[0]
+    assert abs(f0.latitude - np.rad2deg(pos.lat_rad[0])) < 1e-9 and abs(f0.altitude - pos.alt_m[0]) < 1e-4
+    assert f0.header.stamp.sec == int(pos.t_gpst_s[0] + 315964800.0) and f0.position_covariance_type == 3
+    assert f0.status.service == 1 | 4 | 8                        # GPS, BeiDou, Galileo used
+    assert np.sqrt(f0.position_covariance[8]) == pytest.approx(pos.sigma_neu_m[0, 2], abs=1e-4)
     # a navigation file that yields no record: exit 2, the file named
     (tmp_path / "empty.zip").write_bytes(b"")
     capsys.readouterr()

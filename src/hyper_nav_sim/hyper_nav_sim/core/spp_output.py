@@ -20,6 +20,9 @@ written as the field's tools read them. No rclpy.
   applied; GGA's field 11 says 0.0).
 * :func:`write_kml` (Google Earth: the track and the mean position) and
   :func:`write_gpx` (GPX 1.1 track, UTC times).
+* :func:`write_fix_bag`: an MCAP bag of ``sensor_msgs/NavSatFix`` on
+  ``/gnss/fix`` (full ENU covariance), for the graph's ``player`` and the
+  fusion node's loosely coupled ``gnss`` source.
 """
 from __future__ import annotations
 
@@ -248,6 +251,40 @@ def write_gpx(path, sols, name: str = "spp") -> int:
            f"<trk><name>{escape(name)}</name><trkseg>\n" + "\n".join(rows) + "\n</trkseg></trk>\n</gpx>\n")
     Path(path).write_text(doc)
     return len(rows)
+
+
+GPST_UNIX_OFFSET_S = 315964800.0        # the importer's default time axis: GPST as seconds since 1970
+NAVSAT_SERVICE = {"G": 1, "R": 2, "C": 4, "E": 8}     # sensor_msgs/NavSatStatus SERVICE_* bits
+
+
+def fix_messages(sols, frame: str = "gnss_antenna", offset_s: float = GPST_UNIX_OFFSET_S):
+    """sensor_msgs/NavSatFix of every solved epoch, as (t_ns, msg): stamp =
+    GPST + ``offset_s`` (the importer's ``gpst_unix`` axis), status FIX,
+    service bits of the systems used, the full ENU position covariance
+    (``COVARIANCE_TYPE_KNOWN``), ellipsoidal altitude."""
+    from .importer.messages import _header, _stamp_ns, _t
+    NavSatFix, Status = _t("sensor_msgs/msg/NavSatFix"), _t("sensor_msgs/msg/NavSatStatus")
+    for s in sols:
+        if not s.valid:
+            continue
+        la, lo, h = geodetic(s)
+        t = s.t_rx_gpst_s + offset_s
+        service = 0
+        for sid, u in zip(s.sat_ids, s.used):
+            if u:
+                service |= NAVSAT_SERVICE.get(sid[0], 0)
+        yield _stamp_ns(t), NavSatFix(
+            header=_header(t, frame), status=Status(status=0, service=service), latitude=la, longitude=lo,
+            altitude=h, position_covariance=cov_enu(s).ravel().astype(float), position_covariance_type=3)
+
+
+def write_fix_bag(path, sols, topic: str = "/gnss/fix") -> int:
+    """An MCAP bag with one NavSatFix per solved epoch on ``topic`` (the
+    fusion node's ``gnss`` source reads it; ``player`` publishes it).
+    Returns the messages written."""
+    from .importer.messages import write_bag
+    counts = write_bag(path, {topic: ("sensor_msgs/msg/NavSatFix", fix_messages(sols))})
+    return int(counts.get(topic, 0))
 
 
 WRITERS = {"pos": write_pos, "csv": write_csv, "nmea": write_nmea, "kml": write_kml, "gpx": write_gpx}
