@@ -3,6 +3,7 @@ out as RTKLIB .pos, CSV, NMEA, KML and GPX; scored against a reference and
 RTKLIB beside it on request.
 
     spp OBS NAV [NAV ...]                      # RINEX files as archives hold them -> ./spp_<obs name>/
+                                               #   <obs name>.pos .csv .nmea .kml .gpx (a station's day: one command)
     spp OBS NAV --ref header --rtklib          # scored against the header position, RTKLIB postpos beside
     spp tlse | walk | my_receiver.yaml         # a described campaign (core/spp_run.py: several runs, reference)
     spp --bag bags/imported                    # gnss/raw + gnss/ephemeris of a bag
@@ -19,7 +20,8 @@ with the navigation files' Klobuchar ionosphere), ``both``. ``--systems``
 keeps some of G, E, C (e.g. ``--systems G``).
 
 Outputs (``--out DIR``, default ``./spp_<observation file name>`` in the
-current directory; one set per mode, ``<name>_<mode>.<ext>``): ``.pos``
+current directory; ``<name>.<ext>``, or ``<name>_<run>.<ext>`` for each run
+with ``--mode both``): ``.pos``
 (RTKLIB solution, Q=5), ``.csv`` (every epoch: status, geodetic and ECEF
 position, sigmas, receiver clock and inter-system biases, DOPs, satellites
 used / excluded by RAIM with the w-test / below the mask, RAIM statistic),
