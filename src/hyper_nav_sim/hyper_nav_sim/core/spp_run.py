@@ -148,7 +148,7 @@ def read_files(obs_path, nav_paths, runs: dict, max_epochs: int | None = None) -
     """A RINEX observation file and one or more navigation files, as archives
     hold them (2.xx, 3.0x, 4.0x; gzip, .Z, zip, Hatanaka): the epochs of the
     codes the ``runs`` use (pseudoranges and C/N0: positions need no phase
-    or Doppler), every GPS/Galileo/BDS/QZSS broadcast record and
+    or Doppler), the broadcast records of the systems they use and
     the Klobuchar sets (the first file that has a system's set gives it).
     Refused (ConfigError naming the file): a file that does not exist, is
     not RINEX of the right type and version, or yields no epoch / no record."""
@@ -167,9 +167,10 @@ def read_files(obs_path, nav_paths, runs: dict, max_epochs: int | None = None) -
         raise ConfigError(f"{obs_path}: no observation epoch with the signals asked for "
                           f"({plan_codes(runs)}; reader counts {dict(obs.counts)})")
     records, iono, counts, errors, notes = [], {}, Counter(obs.counts), list(obs.errors), []
+    used = tuple(x for x in RINEX3_SYSTEMS if x in plan_codes(runs))     # only the records the runs can use
     for n in nav_paths:
         try:
-            nav = read_rinex_nav(n, RINEX3_SYSTEMS)
+            nav = read_rinex_nav(n, used)
         except ValueError as exc:
             raise ConfigError(f"navigation file {exc}") from None
         records += list(nav)
