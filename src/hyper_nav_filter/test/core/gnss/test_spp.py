@@ -168,3 +168,7 @@ def test_batched_satellite_states_equal_the_per_epoch_ones():
             x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
     assert all(s.valid for s in sols) and len(sols) == 40
     assert max(np.max(np.abs(a.pos_ecef_m - b.pos_ecef_m)) for a, b in zip(sols, by_hand)) < 1e-6
+    # the warm-start stop (second step below warm_tol_m) against Gauss-Newton run to 1e-9 m
+    full = solve(obs.epochs, store, replace(cfg, warm_tol_m=0.0, tol_m=1e-9))
+    assert max(np.max(np.abs(a.pos_ecef_m - b.pos_ecef_m)) for a, b in zip(sols, full)) < 1e-6
+    assert all(s.iterations == 2 for s in sols[1:])
