@@ -161,3 +161,33 @@ def test_rtklib_beside_is_its_own_postpos():
         e = spp_run.error_enu(sol.pos_ecef_m, np.tile(ref.xyz_m, (900, 1)), ref.xyz_m)
         st = spp_run.stats(e)
         assert st["horizontal_rms_m"] == pytest.approx(h, abs=5e-3) and st["vertical_rms_m"] == pytest.approx(v, abs=5e-3)
+
+
+def test_rinex4_navigation_klobuchar_used_or_warned(tmp_path, capsys):
+    """GPS L1 single frequency with a RINEX 4 navigation file written from
+    the TLSE day's records: with its > ION Klobuchar record the positions
+    are those of the RINEX 3 file (whose header holds the same set); without
+    it a WARNING names the missing ionosphere and the heights move by
+    metres (no silent loss of the model)."""
+    spec = importlib.util.spec_from_file_location(
+        "hyper_nav_rinex_formats", Path(__file__).resolve().parents[2] / "hyper_nav_filter" / "test" / "core" / "gnss"
+        / "test_rinex_formats.py")
+    rf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rf)
+    from hyper_nav_sim.core.importer.rtklib_pos import read_pos
+    obs, nav = rd.real_file(rd.TLSE_OBS), rd.real_file(rd.TLSE_NAV)
+    rf._v4_nav(nav, tmp_path / "v4.rnx", per_system=100000)
+    lines = (tmp_path / "v4.rnx").read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("> ION G01 LNAV"))
+    (tmp_path / "v4_noion.rnx").write_text("\n".join(lines[:k] + lines[k + 4:]) + "\n")
+    stem = "TLSE00FRA_R_20240011200_15M_01S_MO"
+    pos = {}
+    for name, nv in (("v3", nav), ("v4", tmp_path / "v4.rnx"), ("noion", tmp_path / "v4_noion.rnx")):
+        capsys.readouterr()
+        assert main([str(obs), str(nv), "--mode", "single", "--short", "10", "--formats", "pos",
+                     "--out", str(tmp_path / name)]) == 0
+        out = capsys.readouterr().out
+        assert ("WARNING: no Klobuchar set for G" in out) == (name == "noion")
+        pos[name] = read_pos(tmp_path / name / f"{stem}.pos")
+    assert np.array_equal(pos["v3"].alt_m, pos["v4"].alt_m) and np.array_equal(pos["v3"].lat_rad, pos["v4"].lat_rad)
+    assert np.mean(np.abs(pos["noion"].alt_m - pos["v3"].alt_m)) > 2.0

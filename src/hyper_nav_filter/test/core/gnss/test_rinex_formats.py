@@ -129,6 +129,10 @@ def test_rinex2_observation_file_reads_the_same_pseudoranges(cut, tmp_path):
     a, b = _pr(obs3), _pr(obs2)
     assert len(a) == len(b) > 50
     assert sorted(a) == sorted(b)                        # same time, satellite, code, value (F14.3)
+    hatanaka = pytest.importorskip("hatanaka")             # the same file as Compact RINEX 1 (.yyd), gzipped
+    (tmp_path / "tlse0010.24d.gz").write_bytes(hatanaka.compress((tmp_path / "tlse0010.24o").read_bytes(),
+                                                                  compression="gz"))
+    assert _pr(read_rinex_obs(tmp_path / "tlse0010.24d.gz", signals={"G": ["1C", "2W"], "E": ["1X", "7X"]})) == b
     e3, e2 = obs3.epochs[0], obs2.epochs[0]
     k3 = [i for i, (s, c) in enumerate(zip(e3.system, e3.signal)) if s == "G" and c == "1C"]
     k2 = [i for i, (s, c) in enumerate(zip(e2.system, e2.signal)) if s == "G" and c == "1C"]
