@@ -7,7 +7,10 @@ written as the field's tools read them. No rclpy.
   per solved epoch ``yyyy/mm/dd hh:mm:ss.sss`` GPST, latitude and longitude
   [deg], ellipsoidal height [m], Q = 5 (single), satellites used, sdn sde
   sdu sdne sdeu sdun [m] (signed square roots of the ENU covariance, as
-  RTKLIB's ``sqvar``), age 0, ratio 0.
+  RTKLIB's ``sqvar``), age 0, ratio 0. The time is the epoch's receiver
+  time tag (RINEX), where RTKLIB's single solution writes the receiver time
+  minus its clock bias (the same epoch for a steered receiver clock; match
+  within a fraction of the interval).
 * :func:`write_csv`: every epoch (solved or not): time, status, geodetic and
   ECEF position, ENU sigmas, receiver clock and inter-system biases [m],
   DOPs, the satellites used, excluded by RAIM (id:w-test) and below the mask,
