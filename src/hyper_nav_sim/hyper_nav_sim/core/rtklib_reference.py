@@ -1,6 +1,14 @@
-"""RTKLIB's single-point solution (``pntpos``, RTKLIB 2.4.3 through the
-``pyrtklib`` binding) on the same observations, as the field's reference
-implementation beside ours. No rclpy.
+"""RTKLIB's single-point solution (RTKLIB 2.4.3 through the ``pyrtklib``
+binding) on the same observations, as the field's reference implementation
+beside ours. No rclpy.
+
+* RINEX: :func:`postpos_rinex` runs RTKLIB's own ``postpos`` (the engine of
+  ``rnx2rtkp``: its own reading, ``uniqnav``, system selection, epoch
+  loop and ``.pos`` writer) on the files decompressed to a temporary folder
+  and reads the ``.pos`` it writes back: RTKLIB as it runs.
+  :func:`solve_rinex` (``readrnx`` + ``pntpos`` per epoch, every observation
+  of the epoch handed over, no ``uniqnav``) is the older wrapper, kept for
+  the comparison of the two.
 
 * RINEX: ``readrnx`` reads the observation file (Hatanaka files are expanded
   to a temporary RINEX file first: RTKLIB's own reader calls the ``crx2rnx``
@@ -22,7 +30,6 @@ runs by default. Epochs are returned with RTKLIB's time (GPST).
 """
 from __future__ import annotations
 
-import gzip
 import pathlib
 import tempfile
 from dataclasses import dataclass
@@ -40,6 +47,7 @@ class RtklibSolution:
     ok: np.ndarray
     message: str = ""
     codes: dict | None = None      # observation codes RTKLIB used per system (first two slots)
+    engine: str = "pntpos"         # postpos (RTKLIB's own engine) or pntpos (epoch by epoch)
 
 
 def _rk():
@@ -61,6 +69,64 @@ def _options(rk, systems, dual: bool, elmask_deg: float):
     return opt
 
 
+def postpos_rinex(obs_path, nav_paths, systems=("G", "E", "C"), dual=True, elmask_deg=10.0) -> RtklibSolution:
+    """RTKLIB ``postpos`` (single mode, forward) on a RINEX observation file
+    and its navigation file(s) as archives hold them: the files are
+    decompressed into a temporary folder (RTKLIB's own decompression calls
+    programs that are not installed), ``postpos`` writes an llh ``.pos``
+    (GPST, 3 decimals; time tag = receiver time - receiver clock bias, as
+    RTKLIB's single solution) which is read back with the project's reader.
+    Options as :func:`_options` (systems, mask, IFLC or broadcast
+    ionosphere, Saastamoinen troposphere, RTKLIB's default error model)."""
+    rk = _rk()
+    from hyper_nav_filter.core.gnss.rinex_file import read_rinex_bytes
+
+    from .importer.rtklib_pos import read_pos
+    navs = [nav_path for nav_path in ([nav_paths] if isinstance(nav_paths, (str, pathlib.Path)) else nav_paths)]
+    with tempfile.TemporaryDirectory(prefix="rtklib_") as tmp:
+        files = [pathlib.Path(tmp) / "obs.rnx"]
+        files[0].write_bytes(read_rinex_bytes(obs_path))
+        for k, n in enumerate(navs):
+            files.append(pathlib.Path(tmp) / f"nav{k}.rnx")
+            files[-1].write_bytes(read_rinex_bytes(n))
+        out = pathlib.Path(tmp) / "rtklib.pos"
+        opt = _options(rk, systems, dual, elmask_deg)
+        sopt = rk.solopt_default
+        sopt.posf, sopt.times, sopt.timef, sopt.timeu = rk.SOLF_LLH, rk.TIMES_GPST, 1, 3
+        sopt.outhead, sopt.height, sopt.sstat, sopt.trace, sopt.outvel = 1, 0, 0, 0, 0
+        fopt = rk.filopt_t()
+        t0 = rk.gtime_t()
+        ret = rk.postpos(t0, t0, 0.0, 0.0, opt, sopt, fopt, [str(f) for f in files], len(files),
+                         rk.Arr1Dchar(str(out)), "", "")
+        if ret != 0 or not out.exists():
+            raise RuntimeError(f"RTKLIB postpos returned {ret} on {obs_path} / {navs}")
+        try:
+            pos = read_pos(out)
+        except ValueError:
+            return RtklibSolution(np.zeros(0), np.zeros((0, 3)), np.zeros(0, int), np.zeros(0, bool),
+                                  "postpos: no solution", None, "postpos")
+    from hyper_nav_filter.core import earth
+    xyz = np.asarray(earth.geodetic_to_ecef(pos.lat_rad, pos.lon_rad, pos.alt_m), float).reshape(-1, 3)
+    return RtklibSolution(pos.t_gpst_s, xyz, pos.n_sat, pos.quality == 5, "", None, "postpos")
+
+
+def rinex_codes(obs_path, systems) -> dict:
+    """The observation codes RTKLIB's RINEX reader puts in its first two
+    frequency slots, per system (its code priorities on this file's header)."""
+    rk = _rk()
+    from hyper_nav_filter.core.gnss.rinex_file import read_rinex_bytes
+    with tempfile.TemporaryDirectory(prefix="rtklib_") as tmp:
+        o = pathlib.Path(tmp) / "obs.rnx"
+        text = read_rinex_bytes(obs_path).decode("ascii", errors="replace").splitlines()
+        head = next(k for k, ln in enumerate(text) if "END OF HEADER" in ln) + 1
+        starts = [k for k in range(head, min(len(text), head + 20000)) if text[k].startswith(">")] or [len(text)]
+        o.write_text("\n".join(text[:starts[min(30, len(starts) - 1)]]) + "\n")     # the first 30 epochs
+        obs, nav, sta = rk.obs_t(), rk.nav_t(), rk.sta_t()
+        if rk.readrnx(str(o), 1, "", obs, nav, sta) != 1:
+            return {}
+    return _used_codes(rk, obs.data, obs.n, systems)
+
+
 def _t(gt) -> float:
     return float(gt.time) + float(gt.sec) - UNIX_GPS_OFFSET_S
 
@@ -76,20 +142,19 @@ def solve_rinex(obs_path, nav_path, systems=("G", "E", "C"), dual=True, elmask_d
     """pntpos on every epoch of a RINEX observation file (or only those at
     ``times_gpst_s``, within 1 ms)."""
     rk = _rk()
-    from hyper_nav_filter.core.gnss.rinex_obs import read_text
+    from hyper_nav_filter.core.gnss.rinex_file import read_rinex_bytes
+    navs = [nav_path] if isinstance(nav_path, (str, pathlib.Path)) else list(nav_path)
     with tempfile.TemporaryDirectory(prefix="rtklib_") as tmp:
         o = pathlib.Path(tmp) / "obs.rnx"
-        o.write_text(read_text(obs_path))
-        nv = pathlib.Path(tmp) / "nav.rnx"
-        p = pathlib.Path(nav_path)
-        if p.suffix == ".gz":
-            with gzip.open(p, "rb") as f:
-                nv.write_bytes(f.read())
-        else:
-            nv.write_bytes(p.read_bytes())
+        o.write_bytes(read_rinex_bytes(obs_path))
         obs, nav, sta = rk.obs_t(), rk.nav_t(), rk.sta_t()
-        if rk.readrnx(str(o), 1, "", obs, nav, sta) != 1 or rk.readrnx(str(nv), 1, "", obs, nav, sta) != 1:
-            raise RuntimeError(f"RTKLIB readrnx could not read {obs_path} / {nav_path}")
+        if rk.readrnx(str(o), 1, "", obs, nav, sta) != 1:
+            raise RuntimeError(f"RTKLIB readrnx could not read {obs_path}")
+        for k, n in enumerate(navs):
+            nv = pathlib.Path(tmp) / f"nav{k}.rnx"
+            nv.write_bytes(read_rinex_bytes(n))
+            if rk.readrnx(str(nv), 1, "", obs, nav, sta) != 1:
+                raise RuntimeError(f"RTKLIB readrnx could not read {n}")
     d = obs.data
     tt = np.array([_t(d[i].time) for i in range(obs.n)])
     starts = np.flatnonzero(np.r_[True, np.diff(tt) != 0])

@@ -182,10 +182,15 @@ class EphemerisStack:
 
 
 def _kepler_E(M, e, iters=12):
-    """Eccentric anomaly from mean anomaly (Newton; converged to 1e-15 rad)."""
+    """Eccentric anomaly from mean anomaly (Newton; converged to 1e-15 rad:
+    stops when every correction is below 1e-15 rad, at most ``iters``
+    steps; 3-4 steps for GNSS eccentricities)."""
     E = M.copy()
     for _ in range(iters):
-        E = E - (E - e * np.sin(E) - M) / (1.0 - e * np.cos(E))
+        d = (E - e * np.sin(E) - M) / (1.0 - e * np.cos(E))
+        E = E - d
+        if np.all(np.abs(d) < 1e-15):
+            break
     return E
 
 

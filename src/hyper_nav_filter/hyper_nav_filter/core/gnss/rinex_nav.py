@@ -1,14 +1,21 @@
 """RINEX navigation files -> broadcast records (:class:`.ephemeris.BroadcastEphemeris`).
 
+:func:`read_rinex_nav` reads any of the versions below from a file as
+archives hold it (:mod:`.rinex_file`: gzip, .Z, zip, bzip2), by its
+``RINEX VERSION / TYPE`` line, and refuses another version, a non-GPS
+RINEX 2 file, an unknown RINEX 4 record, or a file with no record of the
+systems asked for (RinexFormatError: file, line, what).
+
 * RINEX 2.x GPS navigation files (RINEX 2.11 Table A4): :func:`read_rinex2_nav`.
+* RINEX 4.0x navigation files (``> EPH`` / ``> ION`` / ``> STO`` / ``> EOP``
+  records): :func:`_read_v4` (legacy-message ephemerides, Klobuchar ION).
 * RINEX 3.0x mixed navigation files (RINEX 3.05 Tables A6 GPS, A8 Galileo,
   A14 BDS, A10 QZSS): :func:`read_rinex3_nav`, GPS, Galileo, BeiDou and QZSS
   records (GLONASS, SBAS and NavIC records are skipped and counted). A
   record starts with a line ``Snn yyyy mm dd hh mm ss`` and is followed by
   its broadcast-orbit lines (7 for these systems, 3 or 4 for GLONASS/SBAS);
   records are found by that start line, so a file whose GLONASS records have
-  the RINEX 3.05 fifth line reads as well as an older one. ``.gz`` files
-  are read through gzip.
+  the RINEX 3.05 fifth line reads as well as an older one.
 
 Per record: toe/toc/week in the system's own time (GPST for GPS/QZSS, GST on
 the GPS week count for Galileo as RINEX writes it, BDT for BeiDou);
@@ -26,7 +33,6 @@ named in ``errors`` and counted; the rest of the file is read.
 """
 from __future__ import annotations
 
-import gzip
 import re
 from collections import Counter
 from pathlib import Path
@@ -34,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from .ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris, calendar_to_system_s
+from .rinex_file import RinexFormatError, read_rinex_text, rinex_version
 
 RINEX3_SYSTEMS = ("G", "E", "C", "J")
 _START3 = re.compile(r"^[GRECJIS][ 0-9][0-9] \d{4} ")
@@ -49,11 +56,7 @@ def _fields(line: str, start: int, n: int = 4) -> list[float]:
 
 
 def _text(path) -> list[str]:
-    path = Path(path)
-    if path.suffix == ".gz":
-        with gzip.open(path, "rt", errors="replace") as f:
-            return f.read().splitlines()
-    return path.read_text(errors="replace").splitlines()
+    return read_rinex_text(path).splitlines()
 
 
 def _build(system, prn, toc_s, clk, orb) -> BroadcastEphemeris:
@@ -78,9 +81,18 @@ def read_rinex2_nav(path):
 
     Returns ``(ephs, alpha, beta)``: list of BroadcastEphemeris (system 'G') and
     the Klobuchar ION ALPHA [s, s/sc, s/sc^2, s/sc^3] / ION BETA [s, ...] arrays
-    (None if absent)."""
-    lines = _text(path)
+    (None if absent). :func:`read_rinex_nav` also gives counts and errors."""
+    nav = _read_v2(_text(path), path)
+    ab = nav.iono.get("G")
+    return list(nav), (ab[0] if ab else None), (ab[1] if ab else None)
+
+
+def _read_v2(lines, path) -> "Rinex3Nav":
+    """RINEX 2.11 GPS navigation (Table A3/A4): ION ALPHA / ION BETA in the
+    header; records of 8 lines (``PRN yy mm dd hh mm ss.s`` + 3 clock terms,
+    7 broadcast-orbit lines of 3X,4D19.12)."""
     alpha = beta = None
+    out = Rinex3Nav()
     i = 0
     while i < len(lines):
         lab = lines[i][60:].strip()
@@ -91,22 +103,30 @@ def read_rinex2_nav(path):
         i += 1
         if lab == "END OF HEADER":
             break
-    ephs = []
     while i < len(lines):
         h = lines[i]
         if not h.strip():
             i += 1
             continue
-        prn = int(h[0:2])
-        yy, mo, dd, hh, mi = (int(h[3 + 3 * k:5 + 3 * k]) for k in range(5))
-        ss = float(h[17:22])
-        year = yy + (2000 if yy < 80 else 1900)
-        toc_s = calendar_to_system_s("G", year, mo, dd, hh, mi, ss)
-        clk = _fields(h, 22, 3)
-        orb = [_fields(lines[i + k].ljust(80), 3) for k in range(1, 8)]
-        ephs.append(_build("G", prn, toc_s, clk, orb))
+        try:
+            if i + 8 > len(lines):
+                raise ValueError(f"{len(lines) - i - 1} broadcast-orbit lines, expected 7")
+            prn = int(h[0:2])
+            yy, mo, dd, hh, mi = (int(h[3 + 3 * k:5 + 3 * k]) for k in range(5))
+            ss = float(h[17:22])
+            year = yy + (2000 if yy < 80 else 1900)
+            toc_s = calendar_to_system_s("G", year, mo, dd, hh, mi, ss)
+            clk = _fields(h.ljust(80), 22, 3)
+            orb = [_fields(lines[i + k].ljust(80), 3) for k in range(1, 8)]
+            out.append(_build("G", prn, toc_s, clk, orb))
+            out.counts["G"] += 1
+        except ValueError as exc:
+            out.counts["malformed"] += 1
+            out.errors.append(f"{Path(path).name} line {i + 1} ({h[:3]}): {exc}")
         i += 8
-    return ephs, alpha, beta
+    if alpha is not None and beta is not None:
+        out.iono["G"] = (alpha, beta)
+    return out
 
 
 class Rinex3Nav(list):
@@ -117,16 +137,52 @@ class Rinex3Nav(list):
 
     def __init__(self, records=(), iono=None, counts=None, errors=None):
         super().__init__(records)
+        self.version = np.nan
+        self.notes: list[str] = []
         self.iono = dict(iono or {})
         self.counts = Counter(counts or {})
         self.errors = list(errors or [])
 
 
 def read_rinex3_nav_records(path, systems=RINEX3_SYSTEMS) -> Rinex3Nav:
-    """All records of ``systems`` of a RINEX 3.0x navigation file, with the
-    header's Klobuchar sets, counters and the errors of malformed records
-    (see the module docstring)."""
+    """All records of ``systems`` of a RINEX navigation file (2.xx GPS, 3.0x
+    or 4.0x: :func:`read_rinex_nav`), with the Klobuchar sets, counters and
+    the errors of malformed records (see the module docstring)."""
+    return read_rinex_nav(path, systems)
+
+
+def read_rinex_nav(path, systems=RINEX3_SYSTEMS, require_records: bool = True) -> Rinex3Nav:
+    """Any RINEX navigation file the project reads, as archives hold it
+    (:mod:`.rinex_file`), by its version: 2.xx GPS (``N``), 3.0x mixed,
+    4.0x (``> EPH`` / ``> ION`` / ``> STO`` / ``> EOP`` records). Refused
+    with file, line and what: another file type, another version, a RINEX 2
+    navigation file of a system other than GPS, an unknown RINEX 4 record or
+    message type, and (``require_records``) a file with no record of
+    ``systems``."""
     lines = _text(path)
+    v = rinex_version(lines, path)
+    if v.major == 2:
+        if v.file_type != "N":
+            what = {"G": "GLONASS", "H": "SBAS", "E": "Galileo", "L": "Galileo"}.get(v.file_type, repr(v.file_type))
+            raise RinexFormatError(path, 1, f"RINEX 2 navigation file of type {v.file_type!r} ({what}): "
+                                            "only GPS ('N') RINEX 2 navigation files are read")
+        out = _read_v2(lines, path) if "G" in systems else Rinex3Nav()
+    elif v.file_type != "N":
+        raise RinexFormatError(path, 1, f"file type {v.file_type!r}, not a navigation file ('N')")
+    elif v.major == 3:
+        out = _read_v3(lines, path, systems)
+    elif v.major == 4:
+        out = _read_v4(lines, path, systems)
+    else:
+        raise RinexFormatError(path, 1, f"RINEX navigation version {v.version:.2f} (read: 2.xx, 3.xx, 4.xx)")
+    out.version = v.version
+    if require_records and not len(out):
+        raise RinexFormatError(path, None, f"no broadcast record of {'/'.join(systems)} "
+                                           f"(RINEX {v.version:.2f}; {dict(out.counts) or 'nothing read'})")
+    return out
+
+
+def _header_iono(lines):
     hdr: dict[str, np.ndarray] = {}
     i = 0
     while i < len(lines):
@@ -138,33 +194,125 @@ def read_rinex3_nav_records(path, systems=RINEX3_SYSTEMS) -> Rinex3Nav:
             if key not in hdr:
                 hdr[key] = np.array([_f(ln[5 + 12 * k:17 + 12 * k]) for k in range(4)])
         if lab == "END OF HEADER":
-            break
+            return hdr, i
+    raise RinexFormatError("?", None, "no END OF HEADER")
+
+
+def _record(lines, a, b, sysc, path, out) -> None:
+    """One 3.x-layout broadcast record at lines[a:b] (start line + 7 orbit lines)."""
+    h = lines[a]
+    try:
+        if b - a < 8:
+            raise ValueError(f"{b - a - 1} broadcast-orbit lines, expected 7")
+        prn = int(h[1:3])
+        y, mo, dd, hh, mi, ss = (int(h[4:8]), int(h[9:11]), int(h[12:14]), int(h[15:17]),
+                                 int(h[18:20]), int(h[21:23]))
+        toc_s = calendar_to_system_s(sysc, y, mo, dd, hh, mi, ss)
+        clk = _fields(h.ljust(80), 23, 3)
+        orb = [_fields(lines[a + k].ljust(80), 4) for k in range(1, 8)]
+        out.append(_build(sysc, prn, toc_s, clk, orb))
+        out.counts[sysc] += 1
+    except ValueError as exc:
+        out.counts["malformed"] += 1
+        out.errors.append(f"{Path(path).name} line {a + 1} ({h[:3]}): {exc}")
+
+
+def _read_v3(lines, path, systems) -> Rinex3Nav:
+    try:
+        hdr, i = _header_iono(lines)
+    except RinexFormatError:
+        raise RinexFormatError(path, None, "no END OF HEADER") from None
     out = Rinex3Nav()
     starts = [k for k in range(i, len(lines)) if _START3.match(lines[k])]
     starts.append(len(lines))
     for a, b in zip(starts[:-1], starts[1:]):
-        h = lines[a]
-        sysc = h[0]
+        sysc = lines[a][0]
         if sysc not in systems:
             out.counts[f"skipped_{sysc}"] += 1
             continue
-        try:
-            if b - a < 8:
-                raise ValueError(f"{b - a - 1} broadcast-orbit lines, expected 7")
-            prn = int(h[1:3])
-            y, mo, dd, hh, mi, ss = (int(h[4:8]), int(h[9:11]), int(h[12:14]), int(h[15:17]),
-                                     int(h[18:20]), int(h[21:23]))
-            toc_s = calendar_to_system_s(sysc, y, mo, dd, hh, mi, ss)
-            clk = _fields(h.ljust(80), 23, 3)
-            orb = [_fields(lines[a + k].ljust(80), 4) for k in range(1, 8)]
-            out.append(_build(sysc, prn, toc_s, clk, orb))
-            out.counts[sysc] += 1
-        except ValueError as exc:
-            out.counts["malformed"] += 1
-            out.errors.append(f"{Path(path).name} line {a + 1} ({h[:3]}): {exc}")
+        _record(lines, a, b, sysc, path, out)
     for s, ka, kb in (("G", "GPSA", "GPSB"), ("C", "BDSA", "BDSB"), ("J", "QZSA", "QZSB")):
         if ka in hdr and kb in hdr:
             out.iono[s] = (hdr[ka], hdr[kb])
+    return out
+
+
+# RINEX 4.01 Table A5 (record types) and the message types of each system's > EPH records
+RINEX4_EPH_TYPES = {"G": {"LNAV", "CNAV", "CNV2"}, "J": {"LNAV", "CNAV", "CNV2"}, "E": {"INAV", "FNAV"},
+                    "C": {"D1", "D2", "CNV1", "CNV2", "CNV3"}, "R": {"FDMA", "L1OC", "L3OC"}, "S": {"SBAS"},
+                    "I": {"LNAV", "L1NV"}}
+# the records read into BroadcastEphemeris: the legacy messages the 3.x layout holds
+RINEX4_EPH_READ = {"G": {"LNAV"}, "J": {"LNAV"}, "E": {"INAV", "FNAV"}, "C": {"D1", "D2"}}
+RINEX4_RECORDS = ("EPH", "ION", "STO", "EOP")
+# > ION message types holding the Klobuchar model (alpha0-3, beta0-3)
+_ION_KLOBUCHAR = {("G", "LNAV"), ("J", "LNAV"), ("C", "D1D2"), ("G", "CNVX"), ("J", "CNVX")}
+_ION_KNOWN = _ION_KLOBUCHAR | {("E", "IFNV"), ("C", "CNVX"), ("I", "LNAV"), ("I", "L1NV")}
+
+
+def _read_v4(lines, path, systems) -> Rinex3Nav:
+    """RINEX 4.0x navigation (RINEX 4.01 section 5.4, Tables A5-A35): after
+    the header, records introduced by ``> REC SNN MSG``. ``> EPH`` of GPS/QZSS
+    LNAV, Galileo INAV/FNAV and BDS D1/D2 are read (the RINEX 3 layout
+    follows); the other message types (CNAV, CNV1-3, FDMA, SBAS, NavIC) and
+    systems are counted as ``skipped_EPH_<S>_<MSG>``. ``> ION`` Klobuchar
+    records (GPS/QZSS LNAV and CNVX, BDS D1D2: epoch + alpha0-2, alpha3 +
+    beta0-2, beta3) give ``iono``; NeQuick-G (Galileo IFNV) and BDGIM (BDS
+    CNVX) are counted as ``skipped_ION_<S>_<MSG>`` and named in ``notes``
+    (not used here); ``> STO`` and ``> EOP`` are counted. An unknown record
+    or message type is refused (RinexFormatError: file, line, what)."""
+    try:
+        _, i = _header_iono(lines)
+    except RinexFormatError:
+        raise RinexFormatError(path, None, "no END OF HEADER") from None
+    out = Rinex3Nav()
+    starts = [k for k in range(i, len(lines)) if lines[k].startswith(">")]
+    if i < len(lines) and lines[i].strip() and not lines[i].startswith(">"):
+        raise RinexFormatError(path, i + 1, f"expected a '> EPH/ION/STO/EOP' record, got {lines[i][:30]!r}")
+    starts.append(len(lines))
+    iono_t: dict = {}
+    for a, b in zip(starts[:-1], starts[1:]):
+        tok = lines[a][1:].split()
+        if len(tok) < 2 or tok[0] not in RINEX4_RECORDS:
+            raise RinexFormatError(path, a + 1, f"unknown RINEX 4 record {lines[a][:30].rstrip()!r} "
+                                                f"(known: {', '.join(RINEX4_RECORDS)})")
+        rec, sv = tok[0], tok[1]
+        msg = tok[2] if len(tok) > 2 else ""
+        sysc = sv[0]
+        if rec == "EPH":
+            if msg not in RINEX4_EPH_TYPES.get(sysc, ()):
+                raise RinexFormatError(path, a + 1, f"unknown > EPH message type {msg!r} of system {sysc!r} "
+                                                    f"(RINEX 4.01: {sorted(RINEX4_EPH_TYPES.get(sysc, ()))})")
+            if sysc not in systems or msg not in RINEX4_EPH_READ.get(sysc, ()):
+                out.counts[f"skipped_EPH_{sysc}_{msg}"] += 1
+                continue
+            _record(lines, a + 1, b, sysc, path, out)
+        elif rec == "ION":
+            if (sysc, msg) not in _ION_KNOWN:
+                raise RinexFormatError(path, a + 1, f"unknown > ION message type {msg!r} of system {sysc!r}")
+            if (sysc, msg) not in _ION_KLOBUCHAR:
+                out.counts[f"skipped_ION_{sysc}_{msg}"] += 1
+                note = {"IFNV": "Galileo NeQuick-G", "CNVX": "BDS BDGIM"}.get(msg, f"{sysc} {msg}")
+                if note + " ionosphere records not used" not in out.notes:
+                    out.notes.append(note + " ionosphere records not used")
+                continue
+            try:
+                body = [ln.ljust(80) for ln in lines[a + 1:b]]
+                if len(body) < 3:
+                    raise ValueError(f"{len(body)} lines, expected 3")
+                h = body[0]
+                t = calendar_to_system_s("G", int(h[4:8]), int(h[9:11]), int(h[12:14]), int(h[15:17]),
+                                         int(h[18:20]), int(h[21:23]))
+                v = _fields(h, 23, 3) + _fields(body[1], 4, 4) + _fields(body[2], 4, 1)
+            except ValueError as exc:
+                out.counts["malformed"] += 1
+                out.errors.append(f"{Path(path).name} line {a + 1} (ION {sv} {msg}): {exc}")
+                continue
+            out.counts[f"ION_{sysc}_{msg}"] += 1
+            if sysc not in iono_t or t < iono_t[sysc]:          # the first broadcast of the file
+                iono_t[sysc] = t
+                out.iono[sysc] = (np.array(v[:4]), np.array(v[4:8]))
+        else:
+            out.counts[f"skipped_{rec}"] += 1
     return out
 
 

@@ -1,4 +1,5 @@
-"""RINEX 3 observation files -> raw measurement epochs (one channel per signal).
+"""RINEX observation files (3.0x and 4.0x; 2.11 rewritten to the 3.0x layout
+first, :func:`_rinex2_as_3`) -> raw measurement epochs (one channel per signal).
 
 RINEX 3.05 (IGS/RTCM, 2020) section 5 and Appendix A1-A3: a header with
 ``SYS / # / OBS TYPES`` (per system, the observation types, e.g. ``C1C L1C
@@ -7,8 +8,10 @@ H/E/N``, ``GLONASS SLOT / FRQ #``, ``SIGNAL STRENGTH UNIT``, then epochs
 ``> yyyy mm dd hh mm ss.sssssss  flag nsat`` followed by one line per
 satellite: ``Snn`` and, per observation type of that system, a 16-column
 field (F14.3 value, loss-of-lock indicator LLI, signal strength SSI).
-Hatanaka-compressed files (``.crx``, ``.crx.gz``; Hatanaka 1996, CRINEX 3)
-are expanded with the ``hatanaka`` package, ``.gz`` files with gzip.
+Files as archives hold them (gzip, .Z, zip, bzip2, Hatanaka; Hatanaka
+1996, CRINEX 1/3) are expanded by :mod:`.rinex_file`, which also checks the
+``RINEX VERSION / TYPE`` line: another file type or version is refused
+(RinexFormatError: file, line, what).
 
 Signals are selected by observation code: ``signals={"G": ["1C", "2W"],
 "E": ["1X", "7X"]}`` keeps only those codes of those systems (``None`` = every
@@ -32,7 +35,6 @@ line is skipped, named and counted.
 """
 from __future__ import annotations
 
-import gzip
 import re
 from collections import Counter
 from dataclasses import dataclass, field
@@ -42,6 +44,7 @@ import numpy as np
 
 from .ephemeris import calendar_to_system_s
 from .raw_to_pseudoranges import RawGnssEpoch
+from .rinex_file import RinexFormatError, read_rinex_text, rinex_version
 from .signals import C_MPS, has_frequency, frequency_hz
 from .weighting import code_sigma_m
 
@@ -69,17 +72,100 @@ class RinexObs:
 
 
 def read_text(path) -> str:
-    """The text of a RINEX file (.crx/.crx.gz via hatanaka, .gz via gzip)."""
-    p = Path(path)
-    name = p.name.lower()
-    if ".crx" in name or name.endswith("d.gz") or re.search(r"\.\d\dd(\.gz)?$", name):
-        import hatanaka
-        out = hatanaka.decompress(p)
-        return out.decode("ascii", errors="replace") if isinstance(out, bytes) else out
-    if name.endswith(".gz"):
-        with gzip.open(p, "rt", errors="replace") as f:
-            return f.read()
-    return p.read_text(errors="replace")
+    """The text of a RINEX file as archives hold it (gzip, .Z, zip, bzip2,
+    Hatanaka; :mod:`.rinex_file`)."""
+    return read_rinex_text(path)
+
+
+# RINEX 2.11 (Table A1) / 2.12 observation types -> RINEX 3 three-character types per system
+# (RTKLIB rinex.c convcode; a band's phase, Doppler and SNR go with the code RTKLIB pairs them with)
+_V2_TYPES = {
+    "G": {"C1": "C1C", "P1": "C1W", "C2": "C2X", "P2": "C2W", "C5": "C5X", "L1": "L1C", "L2": "L2W", "L5": "L5X",
+          "D1": "D1C", "D2": "D2W", "D5": "D5X", "S1": "S1C", "S2": "S2W", "S5": "S5X"},
+    "R": {"C1": "C1C", "P1": "C1P", "C2": "C2C", "P2": "C2P", "L1": "L1C", "L2": "L2P", "D1": "D1C", "D2": "D2P",
+          "S1": "S1C", "S2": "S2P"},
+    "E": {"C1": "C1X", "C5": "C5X", "C6": "C6X", "C7": "C7X", "C8": "C8X", "L1": "L1X", "L5": "L5X", "L6": "L6X",
+          "L7": "L7X", "L8": "L8X", "D1": "D1X", "D5": "D5X", "D7": "D7X", "D8": "D8X", "S1": "S1X", "S5": "S5X",
+          "S7": "S7X", "S8": "S8X"},
+    "S": {"C1": "C1C", "C5": "C5X", "L1": "L1C", "L5": "L5X", "D1": "D1C", "D5": "D5X", "S1": "S1C", "S5": "S5X"},
+    "J": {"C1": "C1C", "C2": "C2X", "C5": "C5X", "L1": "L1C", "L2": "L2X", "L5": "L5X", "S1": "S1C", "S2": "S2X",
+          "S5": "S5X"},
+    "C": {"C1": "C2I", "C2": "C2I", "C7": "C7I", "C6": "C6I", "L1": "L2I", "L2": "L2I", "L7": "L7I", "L6": "L6I",
+          "S1": "S2I", "S2": "S2I", "S7": "S7I", "S6": "S6I"},
+}
+_V2_SYSTEMS = {"G": "G", " ": "G", "R": "R", "E": "E", "S": "S", "M": "GRESCJ"}
+
+
+def _rinex2_as_3(lines: list, path, sysc: str) -> list:
+    """A RINEX 2.11 observation file's lines rewritten in RINEX 3 layout
+    (RINEX 2.11 section 5.1, Table A1: ``# / TYPES OF OBSERV`` in the
+    header; epoch lines ``yy mm dd hh mm ss.sssssss  f nnn`` with up to 12
+    satellites a line, continued on lines starting with 32 blanks; per
+    satellite ceil(n/5) lines of 5 fields of 16 columns) so that one epoch
+    parser reads both: each satellite's lines joined behind its ``Snn``,
+    each type renamed per system (``_V2_TYPES``; a type a system does not
+    have there is kept under a name no signal plan asks for)."""
+    systems = _V2_SYSTEMS.get(sysc)
+    if systems is None:
+        raise RinexFormatError(path, 1, f"RINEX 2 satellite system {sysc!r} (known: G, R, E, S, M)")
+    out, types, i = [], [], 0
+    while i < len(lines):
+        ln = lines[i]
+        lab = ln[60:].strip()
+        i += 1
+        if lab == "# / TYPES OF OBSERV":
+            if ln[:6].strip():
+                types = []
+            types += [ln[6 + 6 * k:12 + 6 * k].strip() for k in range(9) if ln[6 + 6 * k:12 + 6 * k].strip()]
+            continue
+        if lab == "END OF HEADER":
+            if not types:
+                raise RinexFormatError(path, i, "RINEX 2 header without # / TYPES OF OBSERV")
+            for s in systems:
+                m = _V2_TYPES.get(s, {})
+                names = [m.get(t, f"X{t}{s}") for t in types]
+                for k in range(0, len(names), 13):
+                    head = f"{s}  {len(names):3d}" if k == 0 else " " * 6
+                    out.append(f"{head} {' '.join(names[k:k + 13]):53s}SYS / # / OBS TYPES")
+            out.append(ln)
+            break
+        out.append(ln)
+    else:
+        raise RinexFormatError(path, None, "no END OF HEADER")
+    n_lines = max(1, -(-len(types) // 5))
+    n = len(lines)
+    while i < n:
+        ln = lines[i]
+        if not ln.strip():
+            i += 1
+            continue
+        try:
+            yy, mo, dd, hh, mi = (int(ln[1 + 3 * k:3 + 3 * k]) for k in range(5))
+            sec, flag, nsat = float(ln[15:26]), int(ln[28:29] or 0), int(ln[29:32])
+        except ValueError:
+            out.append(f"? {ln}")                 # named by the epoch parser with its line number
+            i += 1
+            continue
+        year = yy + (2000 if yy < 80 else 1900)
+        out.append(f"> {year:4d} {mo:02d} {dd:02d} {hh:02d} {mi:02d}{sec:11.7f}  {flag:d}{nsat:3d}")
+        i += 1
+        if flag > 1:                              # event: nsat header or comment lines follow
+            out += lines[i:i + nsat]
+            i += nsat
+            continue
+        sats, row = [], ln
+        while True:
+            body = row[32:68]
+            sats += [body[3 * k:3 * k + 3] for k in range(12) if body[3 * k:3 * k + 3].strip()]
+            if len(sats) >= nsat or i >= n or not lines[i].startswith(" " * 32):
+                break
+            row = lines[i]
+            i += 1
+        for s in sats[:nsat]:
+            sid = (s[0] if s[0] != " " else "G") + f"{int(s[1:]):02d}"
+            out.append(sid + "".join(x.ljust(80)[:80] for x in lines[i:i + n_lines]))
+            i += n_lines
+    return out
 
 
 def _parse_header(lines, obs: RinexObs) -> int:
@@ -96,8 +182,6 @@ def _parse_header(lines, obs: RinexObs) -> int:
         i += 1
         if lab == "RINEX VERSION / TYPE":
             h["version"] = float(ln[:9])
-            if h["version"] < 3.0 or ln[20] != "O":
-                raise ValueError(f"not a RINEX 3 observation file (version {ln[:9].strip()}, type {ln[20]!r})")
         elif lab == "MARKER NAME":
             h["marker"] = ln[:60].strip()
         elif lab == "REC # / TYPE / VERS":
@@ -149,7 +233,7 @@ def _frequency(sysc: str, code: str, prn: int, header: dict) -> float:
     return frequency_hz(sysc, code) if has_frequency(sysc, code) else np.nan
 
 
-def _plan(obs: RinexObs, signals) -> dict:
+def _plan(obs: RinexObs, signals, observables: str = "CLDS") -> dict:
     """{system: [(code, iC, iL, iD, iS)]} column indices of the kept signals."""
     plan = {}
     for sysc, types in obs.header["obs_types"].items():
@@ -167,7 +251,7 @@ def _plan(obs: RinexObs, signals) -> dict:
             codes = [c for c in codes if c in wanted]
         rows = []
         for c in codes:
-            idx = {t: (types.index(t + c) if (t + c) in types else -1) for t in "CLDS"}
+            idx = {t: (types.index(t + c) if (t + c) in types and t in observables else -1) for t in "CLDS"}
             rows.append((c, idx["C"], idx["L"], idx["D"], idx["S"]))
         if rows:
             plan[sysc] = rows
@@ -182,14 +266,25 @@ def _field(line: str, k: int):
     return (float(v) if v else np.nan), (int(lli) if lli.isdigit() else 0)
 
 
-def read_rinex_obs(path, signals=None, max_epochs: int | None = None) -> RinexObs:
-    """Read a RINEX 3 observation file (see the module docstring)."""
+def read_rinex_obs(path, signals=None, max_epochs: int | None = None, observables: str = "CLDS") -> RinexObs:
+    """Read a RINEX observation file (see the module docstring).
+    ``observables``: the observation kinds read besides the code C (e.g.
+    ``"CS"``: code and C/N0 only, for single-point positioning: a third less
+    parsing; phases and Dopplers are then NaN)."""
     obs = RinexObs()
     lines = read_text(path).splitlines()
+    v = rinex_version(lines, path)
+    if v.file_type != "O":
+        raise RinexFormatError(path, 1, f"file type {v.file_type!r}, not an observation file ('O')")
+    if v.major == 2:
+        lines = _rinex2_as_3(lines, path, v.system)
+    elif v.major not in (3, 4):
+        raise RinexFormatError(path, 1, f"RINEX observation version {v.version:.2f} (read: 2.xx, 3.xx, 4.xx)")
     i = _parse_header(lines, obs)
+    obs.header["version"] = v.version
     if obs.header.get("time_system", "GPS") not in ("GPS", ""):
         raise ValueError(f"{Path(path).name}: time system {obs.header['time_system']} (only GPS time is read)")
-    plan = _plan(obs, signals)
+    plan = _plan(obs, signals, "C" + observables)
     dbhz = obs.header["signal_strength_unit"] in ("DBHZ", "")
     name = Path(path).name
     n_lines = len(lines)
@@ -223,8 +318,16 @@ def read_rinex_obs(path, signals=None, max_epochs: int | None = None) -> RinexOb
     return obs
 
 
+def _value(ln: str, k: int) -> float:
+    """F14.3 value of observation field k of a satellite line (NaN when blank)."""
+    v = ln[3 + 16 * k:17 + 16 * k].strip()
+    return float(v) if v else np.nan
+
+
 def _epoch(t, body, plan, dbhz, obs, name, first_line) -> RawGnssEpoch | None:
     sysl, prn, code, pr, cp, dop, cn0, flags, freq = [], [], [], [], [], [], [], [], []
+    fcache = obs.__dict__.setdefault("_freq_cache", {})
+    nan = np.nan
     for j, ln in enumerate(body):
         sysc = ln[:1]
         rows = plan.get(sysc)
@@ -233,28 +336,36 @@ def _epoch(t, body, plan, dbhz, obs, name, first_line) -> RawGnssEpoch | None:
         try:
             p = int(ln[1:3])
             for c, iC, iL, iD, iS in rows:
-                v, _ = _field(ln, iC)
-                if not np.isfinite(v):
+                v = _value(ln, iC)
+                if v != v:                                  # NaN: no code observation
                     continue
-                lv, lli = _field(ln, iL) if iL >= 0 else (np.nan, 0)
-                dv, _ = _field(ln, iD) if iD >= 0 else (np.nan, 0)
-                sv, _ = _field(ln, iS) if iS >= 0 else (np.nan, 0)
+                if iL >= 0:
+                    lv, lli = _field(ln, iL)
+                else:
+                    lv, lli = nan, 0
+                dv = _value(ln, iD) if iD >= 0 else nan
+                sv = _value(ln, iS) if iS >= 0 else nan
                 fl = TRACK_PR_VALID
-                if np.isfinite(lv) and not (lli & 1):
-                    fl |= TRACK_CP_VALID
-                if np.isfinite(lv) and not (lli & 2):
-                    fl |= TRACK_HALF_CYCLE
-                if np.isfinite(dv):
+                if lv == lv:
+                    if not (lli & 1):
+                        fl |= TRACK_CP_VALID
+                    if not (lli & 2):
+                        fl |= TRACK_HALF_CYCLE
+                if dv == dv:
                     fl |= TRACK_DOPPLER_VALID
+                key = (sysc, c, p if sysc == "R" else 0)
+                fr = fcache.get(key)
+                if fr is None:
+                    fr = fcache[key] = _frequency(sysc, c, p, obs.header)
                 sysl.append(sysc)
                 prn.append(p)
                 code.append(c)
                 pr.append(v)
                 cp.append(lv)
                 dop.append(dv)
-                cn0.append(sv if dbhz else np.nan)
+                cn0.append(sv if dbhz else nan)
                 flags.append(fl)
-                freq.append(_frequency(sysc, c, p, obs.header))
+                freq.append(fr)
         except ValueError as exc:
             obs.error(f"{name} line {first_line + j + 1} ({ln[:3]}): {exc}")
             continue

@@ -132,3 +132,43 @@ def test_walk_galileo_records_give_small_residuals():
           + ", ".join(f"{k} {m:+.2f} {r:.2f} {x:.1f}" for k, (m, r, x) in sorted(stats.items())))
     assert len(stats) >= 5 and "E14" not in stats                   # E14: flagged unhealthy in its record
     assert all(abs(m) < 3.0 and r < 5.0 for m, r, _ in stats.values())
+
+
+def test_batched_satellite_states_equal_the_per_epoch_ones():
+    """spp.states_batch (orbits of many epochs in one call per system) against
+    receiver_model.states_from_pseudoranges epoch by epoch on 40 TLSE epochs
+    (the plain reference): equal to 1 um and 1e-15 s; and solve() equals
+    solve_epoch chained by hand."""
+    from collections import Counter as _C
+
+    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import EphemerisStore
+    from hyper_nav_filter.core.gnss.receiver_model import satellite_observations, states_from_pseudoranges
+    from hyper_nav_filter.core.gnss.rinex_nav import read_rinex3_nav_records
+    from hyper_nav_filter.core.gnss.rinex_obs import read_rinex_obs
+    from hyper_nav_filter.core.gnss.spp import SppConfig, solve, solve_epoch, states_batch
+    from hyper_nav_filter.core.gnss.combinations import parse_plan
+    from hyper_nav_filter.core.gnss.receiver_model import ReceiverModel
+    obs = read_rinex_obs(rd.real_file(rd.TLSE_OBS), signals={"G": ["1C", "2W"], "E": ["1X", "7X"], "C": ["2I", "6I"]},
+                         max_epochs=40)
+    nav = read_rinex3_nav_records(rd.real_file(rd.TLSE_NAV))
+    store = EphemerisStore(nav)
+    cfg = SppConfig(ReceiverModel(parse_plan({"G": ["1C+2W"], "E": ["1X+7X"], "C": ["2I+6I"]})))
+    ol = [satellite_observations(e, store, cfg.model, _C()) for e in obs.epochs]
+    batch = states_batch(ol)
+    for o, b in zip(ol, batch):
+        ref = states_from_pseudoranges(o)
+        assert np.max(np.abs(b.r_sat_e_m - ref.r_sat_e_m)) < 1e-6
+        assert np.max(np.abs(b.clock_s - ref.clock_s)) < 1e-15
+    sols = solve(obs.epochs, store, cfg)
+    x0, by_hand = None, []
+    for e in obs.epochs:
+        s = solve_epoch(e, store, cfg, x0)
+        by_hand.append(s)
+        if s.valid:
+            x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
+    assert all(s.valid for s in sols) and len(sols) == 40
+    assert max(np.max(np.abs(a.pos_ecef_m - b.pos_ecef_m)) for a, b in zip(sols, by_hand)) < 1e-6
+    # the warm-start stop (second step below warm_tol_m) against Gauss-Newton run to 1e-9 m
+    full = solve(obs.epochs, store, replace(cfg, warm_tol_m=0.0, tol_m=1e-9))
+    assert max(np.max(np.abs(a.pos_ecef_m - b.pos_ecef_m)) for a, b in zip(sols, full)) < 1e-6
+    assert all(s.iterations == 2 for s in sols[1:])
