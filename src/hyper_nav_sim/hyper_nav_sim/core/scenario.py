@@ -153,7 +153,7 @@ def known_fields() -> dict[str, frozenset]:
             tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
     tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block())
     tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED)
-    tree["gnss"] |= {"raw"}
+    tree["gnss"] |= {"raw", "outages_s"}       # outages_s: loose fixes withheld in [t0, t1) windows
     tree["gnss.raw"] = set(receiver._TOP_FIELDS)
     tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
     tree["gnss.raw.lock"] = set(receiver._LOCK_FIELDS)
@@ -415,6 +415,12 @@ def validate(data, source: str = "<dict>") -> dict:
         raise ScenarioError(f"{source}: top level must be a mapping")
     data = _drop_nulls(copy.deepcopy(data))
     try:
+        from .sensor_catalogue import apply_grade          # imu: {grade: tactical, ...overrides}
+        if isinstance(data.get("imu"), dict):
+            data["imu"] = apply_grade(data["imu"])
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+    try:
         check_known_keys(data)
     except ScenarioError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
@@ -521,7 +527,9 @@ def _validate_models(data: dict, source: str) -> None:
     from .lever_arm import LeverArmConfig
     from .mag_model import MagnetometerErrors
     from .world import WorldConfig
+    from .gnss_model import parse_outages
     checks = [("world", lambda d: WorldConfig.from_config(d)),
+              ("gnss", lambda d: parse_outages(d.get("outages_s"))),
               ("imu", lambda d: ImuErrors.from_config(d)),
               ("magnetometer", lambda d: MagnetometerErrors.from_config(d)),
               ("flight", lambda d: parse_flight(d)),
