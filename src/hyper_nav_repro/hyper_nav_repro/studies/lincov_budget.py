@@ -149,8 +149,8 @@ def main(argv=None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="scenario field override")
     ap.add_argument("--blackout", action="append", type=parse_window, default=[], metavar="T0:T1",
                     help="GNSS outage window (s), repeatable (beside the scenario's gnss.outages_s)")
-    ap.add_argument("--epochs", default="", help="table epochs, comma-separated seconds (default: end of each "
-                    "blackout and of the flight)")
+    ap.add_argument("--epochs", default="", help="table epochs, comma-separated seconds (default: the last epoch "
+                    "inside each blackout, and the end of the flight)")
     ap.add_argument("--draws", default="prior", choices=lincov_setup.DRAWS,
                     help="prior: the world as mc_campaign draws it; scenario: the fixed values as 1-sigma")
     ap.add_argument("--step", type=float, default=None, help="LinCov step (s); default 0.1 or the GNSS period")
@@ -166,8 +166,9 @@ def main(argv=None) -> int:
                             lever_arm_sigma_m=a.lever_arm_sigma_m)
     windows = lc.meas[0].outages_s if lc.meas else ()
     res = lc.run(record_every=1)
-    epochs = [float(x) for x in a.epochs.split(",") if x.strip()] or \
-        sorted({w[1] for w in windows} | {float(res.t_s[-1])})
+    # default: the last epoch of each outage (before the first fix after it) and the end of the flight
+    last_in = [float(res.t_s[res.t_s < w[1] - 1e-9][-1]) for w in windows if np.any(res.t_s < w[1] - 1e-9)]
+    epochs = [float(x) for x in a.epochs.split(",") if x.strip()] or sorted(set(last_in) | {float(res.t_s[-1])})
     rows = budget_table(res, epochs)
     print(f"LinCov error budget, scenario {sc.name}: the configured filter against the simulated world's error "
           f"models (draws={a.draws}); GNSS outages {list(windows)}; one pass, {res.cpu_s:.2f} s CPU, "
