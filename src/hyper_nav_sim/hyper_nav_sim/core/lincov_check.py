@@ -95,9 +95,10 @@ def run_mc(data: dict, n_runs: int, draws=("noise", "biases", "initial"), grid_h
     from . import montecarlo
     if workers <= 0:
         return [montecarlo.run_one(data, k, tuple(draws), grid_hz) for k in range(n_runs)]
-    from dask.distributed import Client, LocalCluster
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
-            Client(cl) as client:
+    from dask.distributed import Client
+
+    from ..campaign import new_local_cluster           # 127.0.0.1, no dashboard
+    with new_local_cluster(workers) as cl, Client(cl) as client:
         futs = client.map(montecarlo.run_one, [data] * n_runs, range(n_runs), draws=tuple(draws), grid_hz=grid_hz,
                           pure=False)
         return client.gather(futs)
