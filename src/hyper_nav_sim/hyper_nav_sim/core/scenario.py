@@ -665,9 +665,10 @@ def load_scenario(name_or_path: str) -> Scenario:
     path = find_scenario(str(name_or_path))
     raw = _resolve_extends(_read_yaml(path), pathlib.Path(path).resolve())
     tf = raw.get("trajectory_file") if isinstance(raw, dict) else None
-    if isinstance(tf, dict) and isinstance(tf.get("path"), str) and not pathlib.Path(tf["path"]).is_absolute():
-        # absolute from here on: the copies beside a bag or in an override's work dir still find the file
-        tf["path"] = str(pathlib.Path(path).resolve().parent / tf["path"])
+    for key in ("path", "bag"):
+        if isinstance(tf, dict) and isinstance(tf.get(key), str) and not pathlib.Path(tf[key]).is_absolute():
+            # absolute from here on: the copies beside a bag or in an override's work dir still find the file
+            tf[key] = str(pathlib.Path(path).resolve().parent / tf[key])
     return Scenario(path, validate(raw, str(path)))
 
 

@@ -36,6 +36,14 @@ Scenario block (instead of ``maneuvers``/``flight``)::
       units: {t: s, angle: deg, alt: m}   # t: s|ms; angle (lat, lon, Euler): deg|rad; alt: m|ft
       vel_tolerance_mps: 0.5
       max_flow_angle_deg: 45.0
+
+or a bag (``bag:`` instead of ``path:``): the project's ``truth/state``
+(``hyper_nav_msgs/NavState``: geodetic position, ENU velocity, q_b_enu), or
+``nav_msgs/Odometry`` whose pose is in a local ENU frame at ``origin``
+({lat_deg, lon_deg, alt_m}) and whose twist is in the body frame (REP 105)::
+
+    trajectory_file: {bag: run_bag, topic: /truth/state}
+    trajectory_file: {bag: vehicle_bag, topic: /odom, origin: {lat_deg: 30.0, lon_deg: 120.0, alt_m: 0.0}}
 """
 from __future__ import annotations
 
@@ -55,7 +63,9 @@ from .trajectory import TruthSample, gauss_legendre_increments, inertial_rates
 POS_VEL = ("t", "lat", "lon", "alt", "ve", "vn", "vu")
 QUAT = ("qx", "qy", "qz", "qw")
 EULER = ("roll", "pitch", "heading")
-TOP_FIELDS = ("path", "columns", "units", "vel_tolerance_mps", "max_flow_angle_deg", "min_speed_mps")
+TOP_FIELDS = ("path", "bag", "topic", "origin", "columns", "units", "vel_tolerance_mps", "max_flow_angle_deg",
+              "min_speed_mps")
+ORIGIN_FIELDS = ("lat_deg", "lon_deg", "alt_m")
 UNIT_CHOICES = {"t": {"s": 1.0, "ms": 1e-3}, "angle": {"deg": math.pi / 180.0, "rad": 1.0},
                 "alt": {"m": 1.0, "ft": 0.3048}}
 
@@ -160,9 +170,47 @@ class FileTrajectory:
 
     # ---- files ------------------------------------------------------------------------
     @classmethod
+    def from_bag(cls, path, topic: str, origin: dict | None = None, **kw) -> "FileTrajectory":
+        """From a bag's ``hyper_nav_msgs/NavState`` or ``nav_msgs/Odometry`` topic (module docstring)."""
+        from .bag_arrays import read_arrays
+        bag = read_arrays(path, topics=[topic])
+        if topic not in bag.topics:
+            raise ValueError(f"{path}: no topic {topic!r} in the bag")
+        tp = bag.topics[topic]
+        t = np.asarray(tp.stamp_s, float)
+        src = f"{path} {topic}"
+        if tp.msgtype == "hyper_nav_msgs/msg/NavState":
+            q = np.stack([tp[f"q_b_enu.{c}"] for c in "xyzw"], -1)
+            return cls(t, tp["lat_rad"], tp["lon_rad"], tp["alt_m"], tp["vel_enu_mps"], Rotation.from_quat(q).as_matrix(),
+                       source=src, **kw)
+        if tp.msgtype == "nav_msgs/msg/Odometry":
+            if not origin:
+                raise ValueError(f"trajectory_file.origin: needed for {tp.msgtype} (its pose is local ENU metres)")
+            lat0, lon0 = math.radians(origin["lat_deg"]), math.radians(origin["lon_deg"])
+            p = np.stack([tp[f"pose.pose.position.{c}"] for c in "xyz"], -1)
+            r_e = earth.geodetic_to_ecef(lat0, lon0, float(origin["alt_m"])) + p @ C_n_e(np.array([lat0]),
+                                                                                     np.array([lon0]))[0].T
+            lat, lon, alt = earth.ecef_to_geodetic(r_e)
+            q = np.stack([tp[f"pose.pose.orientation.{c}"] for c in "xyzw"], -1)
+            C = Rotation.from_quat(q).as_matrix()                # body -> the local ENU frame at the origin
+            v_b = np.stack([tp[f"twist.twist.linear.{c}"] for c in "xyz"], -1)
+            v_loc = np.einsum("kij,kj->ki", C, v_b)
+            # the local frame at the origin -> the ENU frame at each position
+            R = np.einsum("kji,jl->kil", C_n_e(lat, lon), C_n_e(np.array([lat0]), np.array([lon0]))[0])
+            return cls(t, lat, lon, alt, np.einsum("kij,kj->ki", R, v_loc), np.einsum("kij,kjl->kil", R, C),
+                       source=src, **kw)
+        raise ValueError(f"{src}: type {tp.msgtype} not flown (hyper_nav_msgs/msg/NavState or nav_msgs/msg/Odometry)")
+
+    @classmethod
     def from_config(cls, cfg: dict, base_dir=None) -> "FileTrajectory":
         """From a scenario's ``trajectory_file`` block (module docstring)."""
         check_config(cfg)
+        kw = {f: float(cfg[f]) for f in ("vel_tolerance_mps", "max_flow_angle_deg", "min_speed_mps") if f in cfg}
+        if "bag" in cfg:
+            bag = pathlib.Path(cfg["bag"])
+            if not bag.is_absolute() and base_dir is not None:
+                bag = pathlib.Path(base_dir) / bag
+            return cls.from_bag(bag, cfg.get("topic", "/truth/state"), cfg.get("origin"), **kw)
         path = pathlib.Path(cfg["path"])
         if not path.is_absolute() and base_dir is not None:
             path = pathlib.Path(base_dir) / path
@@ -183,7 +231,6 @@ class FileTrajectory:
             C = Rotation.from_quat(q).as_matrix()
         else:
             C = C_b_n_from_euler(data["roll"] * k["angle"], data["pitch"] * k["angle"], data["heading"] * k["angle"])
-        kw = {f: float(cfg[f]) for f in ("vel_tolerance_mps", "max_flow_angle_deg", "min_speed_mps") if f in cfg}
         return cls(t, lat, lon, alt, vel, C, source=str(path), **kw)
 
 
@@ -192,8 +239,16 @@ def check_config(cfg) -> None:
     if not isinstance(cfg, dict):
         raise ValueError(f"trajectory_file: expected a mapping, got {cfg!r}")
     check_keys(cfg, TOP_FIELDS, "trajectory_file.")
-    if "path" not in cfg:
-        raise ValueError("trajectory_file.path: required")
+    if ("path" in cfg) == ("bag" in cfg):
+        raise ValueError("trajectory_file: give either path (a CSV) or bag (a rosbag2 directory)")
+    if "origin" in cfg:
+        o = cfg["origin"]
+        if not isinstance(o, dict):
+            raise ValueError("trajectory_file.origin: expected {lat_deg, lon_deg, alt_m}")
+        check_keys(o, ORIGIN_FIELDS, "trajectory_file.origin.")
+        for f in ORIGIN_FIELDS:
+            if not isinstance(o.get(f), (int, float)):
+                raise ValueError(f"trajectory_file.origin.{f}: a number is required")
     cols = cfg.get("columns") or {}
     if not isinstance(cols, dict):
         raise ValueError("trajectory_file.columns: expected a mapping {quantity: column name}")

@@ -4,7 +4,8 @@ renamed columns and units as a 6-DOF tool writes them), flown by a scenario
 with ``trajectory_file:``, gives the built-in flight's IMU increments within
 the interpolation error measured on this flight (50 Hz increments over
 300 s: |d theta| <= 2.7e-5 rad, |d v| <= 8.1e-4 m/s per 20 ms, from a
-10 Hz file; 0.06 % of the largest dv), positions within 1 cm; an
+10 Hz file; 0.06 % of the largest dv), positions within 1 cm; so does a
+nav_msgs/Odometry bag (local ENU pose at an origin, body twist); an
 inconsistent file is refused naming the epoch."""
 import csv
 
@@ -93,3 +94,50 @@ def test_inconsistent_files_are_refused_naming_the_epoch(flight, tmp_path):
         FileTrajectory.from_config({"path": str(tmp_path / "n.csv")})
     with pytest.raises(ValueError, match="did you mean 'columns'"):
         FileTrajectory.from_config({"path": "x.csv", "colums": {}})
+
+
+def _odometry_bag(path, traj, t_s, origin):
+    """The flight as nav_msgs/Odometry: pose in the local ENU frame at ``origin``, twist in body axes."""
+    from scipy.spatial.transform import Rotation
+
+    from hyper_nav_filter.core import earth
+    from hyper_nav_sim.core import bag
+    from hyper_nav_sim.core.trajectory_file import C_n_e
+    T = bag.typestore().types
+    tr = traj.truth(t_s)
+    lat0, lon0 = np.radians(origin["lat_deg"]), np.radians(origin["lon_deg"])
+    C0 = C_n_e(np.array([lat0]), np.array([lon0]))[0]
+    r0 = earth.geodetic_to_ecef(lat0, lon0, origin["alt_m"])
+    p = (earth.geodetic_to_ecef(tr.lat_rad, tr.lon_rad, tr.alt_m) - r0) @ C0
+    C_loc = np.einsum("ji,kjl,klm->kim", C0, C_n_e(tr.lat_rad, tr.lon_rad), tr.C_b_n)
+    q = Rotation.from_matrix(C_loc).as_quat()
+    v_b = np.einsum("kji,kj->ki", tr.C_b_n, tr.vel_enu_mps)
+    typ = "nav_msgs/msg/Odometry"
+    with bag.BagWriter(path) as w:
+        for i, t in enumerate(t_s):
+            ns = int(round(t * 1e9))
+            stamp = T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+            msg = T[typ](
+                header=T["std_msgs/msg/Header"](stamp=stamp, frame_id="odom"), child_frame_id="base_link",
+                pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                    pose=T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](*map(float, p[i])),
+                                                     orientation=T["geometry_msgs/msg/Quaternion"](*map(float, q[i]))),
+                    covariance=np.zeros(36)),
+                twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=T["geometry_msgs/msg/Twist"](linear=T["geometry_msgs/msg/Vector3"](*map(float, v_b[i])),
+                                                       angular=T["geometry_msgs/msg/Vector3"](0.0, 0.0, 0.0)),
+                    covariance=np.zeros(36)))
+            w.write("/odom", typ, ns, bag.serialize(msg, typ))
+
+
+def test_odometry_bag_flies_the_same(flight, tmp_path):
+    sc, _ = flight
+    origin = {"lat_deg": 30.0, "lon_deg": 120.0, "alt_m": 0.0}
+    _odometry_bag(tmp_path / "odom_bag", sc.trajectory(), np.arange(0.0, 60.0 + 1e-9, 0.1), origin)
+    ft = FileTrajectory.from_config({"bag": str(tmp_path / "odom_bag"), "topic": "/odom", "origin": origin})
+    t = np.arange(1, 3001) / 50.0
+    a, b = sc.trajectory().imu_increments(t, 0.02), ft.imu_increments(t, 0.02)
+    assert np.abs(a[0] - b[0]).max() < 3e-5
+    assert np.abs(a[1] - b[1]).max() < 9e-4
+    with pytest.raises(ValueError, match="trajectory_file.origin"):
+        FileTrajectory.from_config({"bag": str(tmp_path / "odom_bag"), "topic": "/odom"})
