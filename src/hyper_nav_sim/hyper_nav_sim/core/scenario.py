@@ -152,7 +152,7 @@ def known_fields() -> dict[str, frozenset]:
         for i in range(len(parts)):
             tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
     tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block())
-    tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED)
+    tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED) | {"grade"}    # grade: core.sensor_catalogue
     tree["gnss"] |= {"raw", "outages_s"}       # outages_s: loose fixes withheld in [t0, t1) windows
     tree["gnss.raw"] = set(receiver._TOP_FIELDS)
     tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
