@@ -6,7 +6,7 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk \
+.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk study-lincov study-lincov-mc \
 	seed003 seed004 reproduce-seed000
 
 help:
@@ -25,6 +25,9 @@ help:
 	@echo "make repro-aided-tracking - issue 23: unaided vs INS-aided receiver through a plasma blackout (10 seeds),"
 	@echo "                            then the filter in the loop: 5 cases beside seed 004 (10 seeds), and the"
 	@echo "                            pull-up flight with aiding 0.1 s and 0.02 s old (10 seeds each)"
+	@echo "design studies (issue 39; JSON and PNGs in results/lincov*/; ARGS=... passes options):"
+	@echo "make study-lincov    - LinCov error budget by source (ARGS=\"--scenario seed004 --blackout 100:220 --sweep imu\")"
+	@echo "make study-lincov-mc - LinCov vs Monte Carlo of the filter (ARGS=\"--runs 200 --workers 2 --split\")"
 	@echo "make repro-walk    - the walk_0827 recording (u-blox + MEMS IMU): TC / LC / SPP against RTK, outages"
 
 setup:
@@ -68,6 +71,12 @@ repro-aided-tracking: setup
 	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --pullup --aiding-delay 0.02 --out results/aided_tracking_pullup_fresh
 repro-walk: setup
 	@$(ENV) ros2run hyper_nav_sim repro_walk --out results/walk $(ARGS)
+
+study-lincov: setup
+	@$(ENV) ros2run hyper_nav_repro study_lincov --out results/lincov $(ARGS)
+
+study-lincov-mc: setup
+	@$(ENV) ros2run hyper_nav_repro study_lincov_mc --out results/lincov_mc $(ARGS)
 
 # earlier names
 reproduce-seed000: repro-seed000

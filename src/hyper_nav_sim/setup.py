@@ -40,6 +40,7 @@ setup(
             "mc_campaign = hyper_nav_sim.mc_campaign:main",
             "spp = hyper_nav_sim.spp:main",
             "repro_walk = hyper_nav_sim.repro_walk:main",
+            "imu_allan_fit = hyper_nav_sim.imu_allan_fit:main",
         ],
         # pytest fixtures for users' own ROS tests (hyper_nav_graph, hyper_nav_domain_id)
         "pytest11": ["hyper_nav = hyper_nav_sim.pytest_plugin"],

@@ -40,3 +40,31 @@ def simulate_fixes(traj, t_s, pos_sigma_enu_m, vel_sigma_enu_mps, lever_arm_b_m,
     vel = tr.vel_enu_mps + v_lever_n + rng.standard_normal((n, 3)) * np.asarray(vel_sigma_enu_mps, float)
     return GnssFixes(np.asarray(t_s, float), lat, lon, alt, vel,
                      np.asarray(pos_sigma_enu_m, float), np.asarray(vel_sigma_enu_mps, float))
+
+
+def parse_outages(value, field: str = "gnss.outages_s") -> tuple:
+    """Outage windows [[t0, t1], ...] (s, sim time, t0 < t1): ValueError naming the field."""
+    if value is None:
+        return ()
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{field}: expected a list of [t0_s, t1_s] windows, got {value!r}")
+    out = []
+    for i, w in enumerate(value):
+        ok = isinstance(w, (list, tuple)) and len(w) == 2 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in w)
+        if not ok or not 0.0 <= float(w[0]) < float(w[1]):
+            raise ValueError(f"{field}[{i}]: expected [t0_s, t1_s] with 0 <= t0 < t1, got {w!r}")
+        out.append((float(w[0]), float(w[1])))
+    return tuple(out)
+
+
+def drop_outages(fixes: GnssFixes, outages_s) -> GnssFixes:
+    """The fixes outside the outage windows [t0, t1) (the noise draws of the
+    others are unchanged: the full stream is drawn first)."""
+    if not outages_s:
+        return fixes
+    keep = np.ones(len(fixes.t_s), bool)
+    for a, b in outages_s:
+        keep &= ~((fixes.t_s >= a) & (fixes.t_s < b))
+    return GnssFixes(fixes.t_s[keep], fixes.lat_rad[keep], fixes.lon_rad[keep], fixes.alt_m[keep],
+                     fixes.vel_enu_mps[keep], fixes.pos_sigma_enu_m, fixes.vel_sigma_enu_mps)

@@ -114,7 +114,7 @@ SCHEMA = {
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
 # (and the aiding nodes' blocks: core.aiding_nodes, read from the installed descriptors)
-OPTIONAL_BLOCKS = ("flight", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "tracker_augmented", "world")
+OPTIONAL_BLOCKS = ("flight", "trajectory_file", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "tracker_augmented", "world")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
             "graph.qos_depth",
@@ -127,7 +127,7 @@ MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
 # blocks whose nested content their own parser checks key by key (boost_glide_config,
 # hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids);
 # the aiding nodes' blocks too (their descriptors' validators, see opaque_blocks)
-OPAQUE_BLOCKS = {"flight", "gnss.raw.lock.sat_outages", "filter.sources",   # filter.sources: sources.parse_sources
+OPAQUE_BLOCKS = {"flight", "trajectory_file", "gnss.raw.lock.sat_outages", "filter.sources",   # filter.sources: sources.parse_sources
                  "world"}                          # core.world.WorldConfig
 
 
@@ -152,8 +152,8 @@ def known_fields() -> dict[str, frozenset]:
         for i in range(len(parts)):
             tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
     tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block())
-    tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED)
-    tree["gnss"] |= {"raw"}
+    tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED) | {"grade"}    # grade: core.sensor_catalogue
+    tree["gnss"] |= {"raw", "outages_s"}       # outages_s: loose fixes withheld in [t0, t1) windows
     tree["gnss.raw"] = set(receiver._TOP_FIELDS)
     tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
     tree["gnss.raw.lock"] = set(receiver._LOCK_FIELDS)
@@ -294,7 +294,13 @@ class Scenario:
         (seed 002 eqs. 1-10, seed 004 eq. 12), else the kinematic maneuver
         profiles. Built once per Scenario object (it is deterministic)."""
         if self._traj is None:
-            if "flight" in self.data:
+            if "trajectory_file" in self.data:       # a user's trajectory (core.trajectory_file)
+                from .trajectory_file import FileTrajectory
+                self._traj = FileTrajectory.from_config(self.data["trajectory_file"], base_dir=self.path.parent)
+                if self._traj.duration_s < self["duration_s"] - 1e-6:
+                    raise ScenarioError(f"{self.path}: duration_s: the trajectory file ends at "
+                                        f"{self._traj.duration_s:.1f} s, before duration_s = {self['duration_s']}")
+            elif "flight" in self.data:
                 from .boost_glide import DynamicTrajectory
                 flight = dict(self.data["flight"])
                 flight.setdefault("duration_s", self["duration_s"])
@@ -415,10 +421,16 @@ def validate(data, source: str = "<dict>") -> dict:
         raise ScenarioError(f"{source}: top level must be a mapping")
     data = _drop_nulls(copy.deepcopy(data))
     try:
+        from .sensor_catalogue import apply_grade          # imu: {grade: tactical, ...overrides}
+        if isinstance(data.get("imu"), dict):
+            data["imu"] = apply_grade(data["imu"])
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+    try:
         check_known_keys(data)
     except ScenarioError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
-    dynamic = "flight" in data
+    dynamic = "flight" in data or "trajectory_file" in data      # the truth's own start
     if dynamic and "start" in data:
         raise ScenarioError(f"{source}: start: not used with a 'flight:' block (the flight starts at "
                             f"flight.start); remove it ('start: null' in a file that extends a kinematic scenario)")
@@ -521,7 +533,11 @@ def _validate_models(data: dict, source: str) -> None:
     from .lever_arm import LeverArmConfig
     from .mag_model import MagnetometerErrors
     from .world import WorldConfig
+    from .gnss_model import parse_outages
+    from .trajectory_file import check_config as check_trajectory_file
     checks = [("world", lambda d: WorldConfig.from_config(d)),
+              ("gnss", lambda d: parse_outages(d.get("outages_s"))),
+              ("trajectory_file", lambda d: check_trajectory_file(d)),
               ("imu", lambda d: ImuErrors.from_config(d)),
               ("magnetometer", lambda d: MagnetometerErrors.from_config(d)),
               ("flight", lambda d: parse_flight(d)),
@@ -648,6 +664,11 @@ def _resolve_extends(raw, path, seen=()) -> dict:
 def load_scenario(name_or_path: str) -> Scenario:
     path = find_scenario(str(name_or_path))
     raw = _resolve_extends(_read_yaml(path), pathlib.Path(path).resolve())
+    tf = raw.get("trajectory_file") if isinstance(raw, dict) else None
+    for key in ("path", "bag"):
+        if isinstance(tf, dict) and isinstance(tf.get(key), str) and not pathlib.Path(tf[key]).is_absolute():
+            # absolute from here on: the copies beside a bag or in an override's work dir still find the file
+            tf[key] = str(pathlib.Path(path).resolve().parent / tf[key])
     return Scenario(path, validate(raw, str(path)))
 
 

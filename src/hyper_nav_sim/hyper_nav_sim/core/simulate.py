@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gnss_model import GnssFixes, simulate_fixes
+from .gnss_model import GnssFixes, drop_outages, parse_outages, simulate_fixes
 from .imu_model import ImuErrors, corrupt_increments, imu_epochs
 from .baro_model import BaroErrors, simulate_baro_pa
 from .lever_arm import LeverArmConfig, add_lever_arm_to_increments
@@ -106,9 +106,11 @@ def gnss_raw_stream(sc: Scenario, traj):
 
 
 def gnss_stream(sc: Scenario, traj) -> GnssFixes:
+    """Loosely coupled fixes; none inside the ``gnss.outages_s`` windows (a blackout)."""
     t = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
-    return simulate_fixes(traj, t, sc["gnss.pos_sigma_enu_m"], sc["gnss.vel_sigma_enu_mps"],
-                          sc["gnss.antenna_lever_arm_b_m"], sc.rng("gnss"))
+    fixes = simulate_fixes(traj, t, sc["gnss.pos_sigma_enu_m"], sc["gnss.vel_sigma_enu_mps"],
+                           sc["gnss.antenna_lever_arm_b_m"], sc.rng("gnss"))
+    return drop_outages(fixes, parse_outages(sc.data["gnss"].get("outages_s")))
 
 
 def mag_stream(sc: Scenario, traj):
