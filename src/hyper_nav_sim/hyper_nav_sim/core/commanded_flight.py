@@ -117,6 +117,11 @@ class CommandedFlight(DynamicTrajectory):
         return self._k * self.step_s if not self.terminated_early else self.duration_s
 
     @property
+    def finished(self) -> bool:
+        """The flight is integrated to its end (its duration or an end event)."""
+        return self.terminated_early or self._k * self.step_s >= self._t_max - 1e-9
+
+    @property
     def next_step(self) -> int:
         """Index of the next step to integrate (its commands must be in by then)."""
         return self._k
@@ -198,3 +203,67 @@ class CommandedFlight(DynamicTrajectory):
         if not self._segments:                   # nothing flown yet: the initial state (t = 0)
             return np.repeat(self._y0[:, None], len(t), axis=1)
         return super().state(t)
+
+
+class CommandLoop:
+    """The flight's side of a live loop (truth node, offline loops): which
+    steps may be flown given the commands received.
+
+    A guidance that is in the loop (``expect``) sends one command per
+    navigation stamp on its grid t_j = j period_s (t_j >= t_start_s, before
+    the flight's end), and command j applies at step j + m,
+    m = ceil(apply_delay_s / period_s). So step k may be integrated once
+    every command j <= k - m has arrived (accepted or refused: a refused
+    one is counted and the previous command holds) or been given up
+    (``give_up``: counted as missed). The flight then never depends on when
+    a command arrived, only on its stamp and values."""
+
+    def __init__(self, flight: CommandedFlight, t_start_s: float = 0.0, expect: bool = True):
+        self.flight = flight
+        self.expect = bool(expect)
+        P = flight.step_s
+        self.j_first = int(math.ceil(t_start_s / P - 1e-9))
+        self.m = flight.apply_step(0.0)
+        self._arrived: set[int] = set()
+        self.next_j = self.j_first           # the oldest command not arrived yet
+        self.missed = 0
+        self.off_grid = 0
+
+    def receive(self, t_nav_s: float, sigma_cmd_rad: float, c_l_cmd: float) -> str | None:
+        """A command from the stream: None if accepted, else the reason it was refused."""
+        P = self.flight.step_s
+        j = int(round(t_nav_s / P))
+        if abs(t_nav_s - j * P) > 1e-6:
+            self.off_grid += 1                   # not on the guidance grid: applies, but nothing waits for it
+        else:
+            self._arrived.add(j)
+            while self.next_j in self._arrived:
+                self._arrived.discard(self.next_j)
+                self.next_j += 1
+        return self.flight.command(t_nav_s, sigma_cmd_rad, c_l_cmd)
+
+    def flyable_s(self) -> float:
+        """The time up to which the flight may be integrated now."""
+        f = self.flight
+        if not self.expect or f.finished:
+            return math.inf
+        return (self.next_j + self.m) * f.step_s
+
+    def waiting_for_s(self) -> float | None:
+        """The navigation stamp of the command the flight waits for, or None."""
+        f = self.flight
+        if not self.expect or f.finished or f.flown_s + 1e-9 < self.flyable_s():
+            return None
+        return self.next_j * f.step_s
+
+    def give_up(self) -> None:
+        """Fly on without the awaited command (it is counted as missed)."""
+        self.missed += 1
+        self.next_j += 1
+        while self.next_j in self._arrived:
+            self._arrived.discard(self.next_j)
+            self.next_j += 1
+
+    def advance(self, t_s: float) -> float:
+        """Integrate up to min(t_s, flyable_s()); returns ``flown_s``."""
+        return self.flight.advance(min(t_s, self.flyable_s()))
