@@ -272,6 +272,7 @@ class Graph:
             return {}
         names = ["fusion"] if "fusion" in self.nodes else []
         names += [node.ros_name or node.name for node in self._aiding() if node.gates_clock]
+        names += ["guidance"] if "guidance" in self.nodes else []      # its input matched first (issue 36)
         if self.record:
             names.append("recorder")
         return {"allowance_nodes": names} if names else {}

@@ -9,8 +9,10 @@ the guidance grid (t = j guidance.period_s, t >= guidance.t_start_s) with
 (``hyper_nav_msgs/GlideCommand``, stamped with the navigation stamp; the
 truth node applies it at the declared step). Messages off the grid are
 skipped; NaN, out-of-order or repeated stamps are rejected and counted on
-/diagnostics. The node keeps no timer of its own: the same navigation
-messages give the same commands, live or offline.
+/diagnostics. The node keeps no sim-time timer: the same navigation
+messages give the same commands, live or offline. It reports to the clock
+gate (``/graph/allowance``) once its navigation subscription is matched, so
+the time source sends nothing it would miss.
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ from hyper_nav_msgs.msg import GlideCommand, NavState
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 
+from hyper_nav_filter.clock_gate import ClockAllowance, InputsReady
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
 from hyper_nav_filter.ros_util import publisher_qos, run_node
 from hyper_nav_sim.core.boost_glide_config import parse_flight
@@ -60,6 +63,11 @@ class GuidanceNode(Node):
             self.sub = self.create_subscription(Odometry, topic, self._on_odom, qos)
         else:
             self.sub = self.create_subscription(NavState, topic, self._on_navstate, qos)
+        # the time source waits until this subscription has matched its publishers from this side
+        # (a reliable volatile reader drops what was sent before: the first states, and the loop would
+        # wait command_timeout_s for their commands); then the allowance is unlimited
+        self.allowance = ClockAllowance(self, source=lambda: math.inf,
+                                        ready=InputsReady(self, lambda: [self.sub], required=[topic]))
         self.counts = {"received": 0, "commands": 0, "off_grid": 0, "rejected not_finite": 0,
                        "rejected out_of_order": 0, "before_start": 0}
         self.last_t = -math.inf

@@ -196,11 +196,12 @@ class TruthNode(Node):
         if f.finished:
             return target
         k_ok = int(np.floor(f.flown_s / self.step_s + 1e-9))
-        if k_ok < target and self.loop.waiting_for_s() is not None:
+        awaited = self.loop.waiting_for_s() if k_ok < target else None
+        if awaited is not None:
             now = time.monotonic()
-            if self._wait_since is None:
-                self._wait_since = now
-            elif now - self._wait_since > self.guidance.command_timeout_s:
+            if self._wait_since is None or self._wait_since[1] != awaited:
+                self._wait_since = (now, awaited)          # the timeout counts per awaited command
+            elif now - self._wait_since[0] > self.guidance.command_timeout_s:
                 self.get_logger().warning(f"no command for the navigation stamp {self.loop.waiting_for_s():.3f} s "
                                           f"after {self.guidance.command_timeout_s:g} s (wall): flying on the last")
                 self.loop.give_up()
