@@ -155,26 +155,24 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
             loop.receive(t_nav, c.sigma_cmd_rad, c.c_l_cmd)
             last_nav = (t_nav, float(x.lat_rad), float(x.lon_rad), float(x.alt_m))
 
-    for k in range(len(t_imu)):
+    k, n_imu = 0, len(t_imu)
+    while k < n_imu:
         t = t_imu[k]
         loop.advance(math.ceil(t / h - 1e-9) * h)
         if flight.flown_s < t - 1e-9:
             if flight.finished:
                 break
             raise RuntimeError(f"the loop stalls at {t:.3f} s: guidance.apply_delay_s too short for its stream")
-        dth, dv = flight.imu_increments(t_imu[k:k + 1], dt)
-        dth, dv = corrupt_increments(dth, dv, dt, errors, rng_imu, st)
-        eng.add_imu(t, dth[0], dv[0])
-        while j < len(t_gnss) and t_gnss[j] <= t + 1e-9:
-            tg = t_gnss[j]
-            g = simulate_fixes(flight, t_gnss[j:j + 1], sc["gnss.pos_sigma_enu_m"], sc["gnss.vel_sigma_enu_mps"],
-                               sc["gnss.antenna_lever_arm_b_m"], rng_gnss)
-            if not any(a <= tg < b for a, b in gnss_outages):
-                eng.add_measurement(GnssVelocity(tg, g.vel_enu_mps[0], np.diag(g.vel_sigma_enu_mps**2)))
-                eng.add_measurement(GnssPosition(tg, g.lat_rad[0], g.lon_rad[0], g.alt_m[0],
-                                                 np.diag(g.pos_sigma_enu_m**2)))
-            j += 1
-        act(eng.release())
+        # the IMU samples of the flown step, in one call (one continuous error process)
+        k1 = int(np.searchsorted(t_imu, flight.flown_s + 1e-9, side="right"))
+        dth_b, dv_b = flight.imu_increments(t_imu[k:k1], dt)
+        dth_b, dv_b = corrupt_increments(dth_b, dv_b, dt, errors, rng_imu, st)
+        for i in range(k1 - k):
+            t = t_imu[k + i]
+            _imu_epoch(eng, t, dth_b[i], dv_b[i])
+            j = _gnss_until(eng, flight, sc, t_gnss, j, t, rng_gnss, gnss_outages)
+            act(eng.release())
+        k = k1
     nav_err = 0.0
     if last_nav is not None:
         from hyper_nav_filter.core import earth
@@ -183,3 +181,42 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
                                        tr.lat_rad[0], tr.lon_rad[0], tr.alt_m[0])
         nav_err = float(np.linalg.norm(d))
     return _finish(cfg, flight, loop, commands, nav_err)
+
+
+def _imu_epoch(eng, t, dth, dv):
+    eng.add_imu(t, dth, dv)
+
+
+def _gnss_until(eng, flight, sc, t_gnss, j, t, rng_gnss, gnss_outages):
+    """Add the GNSS fixes up to t (drawn for every epoch, dropped in the outages); returns the next index."""
+    while j < len(t_gnss) and t_gnss[j] <= t + 1e-9:
+        tg = t_gnss[j]
+        g = simulate_fixes(flight, t_gnss[j:j + 1], sc["gnss.pos_sigma_enu_m"], sc["gnss.vel_sigma_enu_mps"],
+                           sc["gnss.antenna_lever_arm_b_m"], rng_gnss)
+        if not any(a <= tg < b for a, b in gnss_outages):
+            eng.add_measurement(GnssVelocity(tg, g.vel_enu_mps[0], np.diag(g.vel_sigma_enu_mps**2)))
+            eng.add_measurement(GnssPosition(tg, g.lat_rad[0], g.lon_rad[0], g.alt_m[0],
+                                             np.diag(g.pos_sigma_enu_m**2)))
+        j += 1
+    return j
+
+
+def replay_commands(sc: Scenario, commands) -> LoopResult:
+    """The flight a recorded command stream gives: the commands
+    [(t_nav_s, sigma_cmd_rad, c_l_cmd), ...] (e.g. a bag's guidance/command)
+    given to a fresh ``CommandedFlight``, flown to its end; the miss at its end.
+    The live flight equals it bit for bit (the apply step depends on the stamp only)."""
+    cfg, flight = make_flight(sc)
+    for t, s, c in commands:
+        flight.command(t, s, c)
+    flight.run()
+    tr = flight.truth(np.array([flight.duration_s]))
+    miss = miss_enu_m(cfg, tr.lat_rad[0], tr.lon_rad[0], tr.alt_m[0], tr.vel_enu_mps[0])
+    return LoopResult(flight, flight.duration_s, miss, list(commands), 0.0, dict(flight.refused))
+
+
+def truth_epochs(sc: Scenario, n: int) -> np.ndarray:
+    """The truth node's first n truth/state epochs (k / clock_rate_hz, every truth_rate), exactly."""
+    base = 1.0 / sc["graph.clock_rate_hz"]
+    every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
+    return np.arange(0, n * every, every) * base
