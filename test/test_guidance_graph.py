@@ -27,7 +27,7 @@ from hyper_nav_sim.core.boost_glide_config import parse_flight
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
 
 pytestmark = pytest.mark.graph
-ON_TRUTH = {"guidance.nav_topic": "truth/state", "guidance.nav_type": "navstate", "duration_s": 114.0,
+ON_TRUTH = {"guidance.nav_topic": "truth/state", "guidance.nav_type": "navstate", "duration_s": 114.0,   # (its default)
             "graph.real_time_factor": 10.0}
 
 
