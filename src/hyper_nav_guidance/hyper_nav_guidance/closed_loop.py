@@ -220,3 +220,35 @@ def truth_epochs(sc: Scenario, n: int) -> np.ndarray:
     base = 1.0 / sc["graph.clock_rate_hz"]
     every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
     return np.arange(0, n * every, every) * base
+
+
+def bag_loop(bag) -> tuple[list, np.ndarray]:
+    """The loop recorded in a bag: its commands [(t_nav_s, bank_rad, c_l)] (guidance/command) in stamp
+    order, and the truth/state rows [lat, lon, alt, vE, vN, vU] in stamp order."""
+    from hyper_nav_sim.core.bag import deserialize, read_bag
+    cmds, truth = [], []
+    for rec in read_bag(bag, topics=("/guidance/command", "/truth/state")):
+        m = deserialize(rec.raw, rec.msgtype)
+        if rec.topic.endswith("guidance/command"):
+            cmds.append((_stamp_s(m.header.stamp), float(m.bank_rad), float(m.c_l)))
+        else:
+            truth.append((_stamp_s(m.header.stamp), m.lat_rad, m.lon_rad, m.alt_m, *[float(v) for v in m.vel_enu_mps]))
+    truth.sort(key=lambda r: r[0])
+    return sorted(cmds), np.array([r[1:] for r in truth])
+
+
+def _stamp_s(stamp) -> float:
+    from hyper_nav_filter.conversions import stamp_to_s
+    return stamp_to_s(stamp)
+
+
+def replay_equals(sc: Scenario, commands, truth_rows: np.ndarray) -> tuple[bool, LoopResult]:
+    """Whether the truth rows (the truth node's samples in order) equal, bit for bit, the flight the
+    commands give offline at the truth node's epochs."""
+    replay = replay_commands(sc, commands)
+    t = truth_epochs(sc, len(truth_rows))
+    if len(t) == 0 or t[-1] > replay.flight.duration_s + 1e-9:
+        return False, replay
+    want = np.array([[float(s.lat_rad[0]), float(s.lon_rad[0]), float(s.alt_m[0]), *s.vel_enu_mps[0]]
+                     for s in (replay.flight.truth(t[i:i + 1]) for i in range(len(t)))])
+    return bool(np.array_equal(np.asarray(truth_rows, float), want)), replay

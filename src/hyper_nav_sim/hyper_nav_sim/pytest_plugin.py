@@ -27,8 +27,9 @@ Fixtures:
       ``GuidanceRun``: ``miss`` (miss_m, down_range_m, cross_range_m at the
       target's altitude), ``bag`` (recorded), ``messages``, ``commands``,
       ``truth_node`` (its last /diagnostics: commands accepted / refused /
-      missed) and ``replay_equal`` (the live truth equals the flight the
-      recorded commands give offline, bit for bit). Your node should wait
+      missed) and ``replay_equal`` (the recorded bag's truth/state equals the
+      flight its recorded guidance/command gives offline, bit for bit; the
+      collected messages without ``record``). Your node should wait
       for its navigation input before anything else (the clock starts once
       its command publisher exists).
   ``hyper_nav_domain_id``  the ROS domain the fixture's graphs use
@@ -183,7 +184,7 @@ class GuidanceLoop:
 
         import numpy as np
 
-        from hyper_nav_guidance.closed_loop import replay_commands, truth_epochs
+        from hyper_nav_guidance.closed_loop import bag_loop, replay_equals
         from hyper_nav_filter.conversions import stamp_to_s
         from hyper_nav_sim.graph import DEFAULT_NODES, executable
         if isinstance(node, tuple):
@@ -221,15 +222,11 @@ class GuidanceLoop:
             for st in arr.status:
                 if st.name == "hyper_nav_sim: truth":
                     truth_node = {kv.key: kv.value for kv in st.values}
-        replay = replay_commands(run.scenario, cmds)
-        msgs = run.messages["truth/state"]
-        t = truth_epochs(run.scenario, len(msgs))
-        x = np.array([[m.lat_rad, m.lon_rad, m.alt_m, *m.vel_enu_mps] for m in msgs])
-        ok = len(msgs) > 0 and t[-1] <= replay.flight.duration_s + 1e-9
-        if ok:
-            want = np.array([[float(s.lat_rad[0]), float(s.lon_rad[0]), float(s.alt_m[0]), *s.vel_enu_mps[0]]
-                             for s in (replay.flight.truth(t[i:i + 1]) for i in range(len(t)))])
-            ok = bool(np.array_equal(x, want))
+        if run.bag is not None:               # on the recorded bag: its commands and its truth
+            cmds, rows = bag_loop(run.bag)
+        else:
+            rows = np.array([[m.lat_rad, m.lon_rad, m.alt_m, *m.vel_enu_mps] for m in run.messages["truth/state"]])
+        ok, replay = replay_equals(run.scenario, cmds, rows)
         return GuidanceRun(replay.miss, run.bag, run.messages, cmds, truth_node, ok, run)
 
     def close(self) -> None:
