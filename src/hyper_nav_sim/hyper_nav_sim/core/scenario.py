@@ -567,6 +567,8 @@ def _validate_models(data: dict, source: str) -> None:
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(f"{source}: {msg if msg.startswith('gnss') else 'gnss.raw.' + msg}") from None
+    if "guidance" in data and "flight" not in data:
+        raise ScenarioError(f"{source}: guidance: needs a 'flight' block (the boost-glide truth it steers)")
     if "flight" in data and "maneuvers" in data:
         raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both "
                             f"(a file that extends a kinematic scenario removes them with 'maneuvers: null')")

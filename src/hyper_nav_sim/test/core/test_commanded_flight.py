@@ -2,16 +2,18 @@
 issue 36): the program flies when no command comes, the flight depends on
 the commands' stamps and values only (not on how it is advanced nor on their
 arrival order), refused commands change nothing and are counted."""
+import copy
 import math
 
 import numpy as np
 import pytest
+import yaml
 
 from hyper_nav_sim.core.boost_glide import DynamicTrajectory
 from hyper_nav_sim.core.boost_glide_config import parse_flight
 from hyper_nav_sim.core.commanded_flight import CommandedFlight, CommandLoop
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
-from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.core.scenario import ScenarioError, load_scenario
 
 DURATION_S = 12.0
 
@@ -120,7 +122,7 @@ def test_command_loop_waits_for_due_commands(flight_dict):
     assert loop.advance(5.0) == pytest.approx(5.0)
 
 
-def test_guidance_block_validated():
+def test_guidance_block_validated(tmp_path):
     ok = {"target": {"lat_deg": 30.0, "lon_deg": 121.0}}
     assert GuidanceConfig.from_config(ok).target_alt_m == 0.0
     with pytest.raises(ValueError, match="guidance.navigation_constnt: unknown field; did you mean 'navigation_constant'"):
@@ -133,3 +135,15 @@ def test_guidance_block_validated():
         GuidanceConfig.from_config({**ok, "period_s": 0.2, "apply_delay_s": 0.1})
     with pytest.raises(ValueError, match="guidance.nav_type"):
         GuidanceConfig.from_config({**ok, "nav_type": "imu"})
+    # in a scenario: validated with the rest, and only with a flight to steer
+    data = copy.deepcopy(load_scenario("guidance_glide").data)
+    data["guidance"]["navigation_constnt"] = 3.0
+    path = tmp_path / "g.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ScenarioError, match="navigation_constnt: unknown field; did you mean 'navigation_constant'"):
+        load_scenario(str(path))
+    data = copy.deepcopy(load_scenario("default").data)
+    data["guidance"] = ok
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ScenarioError, match="guidance: needs a 'flight' block"):
+        load_scenario(str(path))
