@@ -6,7 +6,7 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk study-lincov study-lincov-mc \
+.PHONY: setup run test clean bench help train-lekf repro-guidance repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk study-lincov study-lincov-mc \
 	seed003 seed004 reproduce-seed000
 
 help:
@@ -25,6 +25,7 @@ help:
 	@echo "make repro-aided-tracking - issue 23: unaided vs INS-aided receiver through a plasma blackout (10 seeds),"
 	@echo "                            then the filter in the loop: 5 cases beside seed 004 (10 seeds), and the"
 	@echo "                            pull-up flight with aiding 0.1 s and 0.02 s old (10 seeds each)"
+	@echo "make repro-guidance - issue 36: guidance in the loop, miss distance on truth / delayed nav / blackout / INS (10 seeds)"
 	@echo "design studies (issue 39; JSON and PNGs in results/lincov*/; ARGS=... passes options):"
 	@echo "make study-lincov    - LinCov error budget by source (ARGS=\"--scenario seed004 --blackout 100:220 --sweep imu\")"
 	@echo "make study-lincov-mc - LinCov vs Monte Carlo of the filter (ARGS=\"--runs 200 --workers 2 --split\")"
@@ -69,6 +70,8 @@ repro-aided-tracking: setup
 	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --out results/aided_tracking
 	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --pullup --out results/aided_tracking_pullup
 	@$(ENV) ros2run hyper_nav_repro repro_aided_blackout --pullup --aiding-delay 0.02 --out results/aided_tracking_pullup_fresh
+repro-guidance: setup
+	@$(ENV) ros2run hyper_nav_guidance repro_guidance --out results/guidance $(ARGS)
 repro-walk: setup
 	@$(ENV) ros2run hyper_nav_sim repro_walk --out results/walk $(ARGS)
 

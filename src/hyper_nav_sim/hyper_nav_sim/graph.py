@@ -75,7 +75,8 @@ CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav
                     "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
                     "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_sim", "recorder"),
                     "player": ("hyper_nav_sim", "player"), "monitor": ("hyper_nav_sim", "monitor"),
-                    "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view")}
+                    "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_sim", "foxglove_view"),
+                    "guidance": ("hyper_nav_guidance", "guidance_node")}
 # ROS node names where they differ from the graph's process names
 CORE_ROS_NAMES = {"mag": "magnetometer", "baro": "barometer", "foxglove": "foxglove_view"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
@@ -201,6 +202,7 @@ class Graph:
                 nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
                                                    if block in self.scenario.data) + ("fusion",)
                 nodes += ("tracker",) if "radar" in self.scenario.data else ()
+                nodes += ("guidance",) if "guidance" in self.scenario.data else ()   # issue 36: the loop
             nodes += tuple(n.name for n in aiding_nodes.descriptors().values()
                            if n.wanted(self.scenario.data, self._fusion_inputs))
         self.nodes = tuple(nodes)
@@ -252,7 +254,15 @@ class Graph:
                  if set(node.inputs(self.scenario.data.get(node.block) or {})) & set(topics))
         if "tracker" in self.nodes and "radar/track" in topics:
             n += 1
+        if "guidance" in self.nodes and self._guidance_nav_topic() in topics:
+            n += 1
         return n + max((self.extra.get(t, 0) for t in topics), default=0)
+
+    def _guidance_nav_topic(self) -> str:
+        """The navigation topic the guidance node flies on (its node parameter, else the scenario's)."""
+        from .core.guidance_config import GuidanceConfig
+        given = self.node_params.get("guidance", {}).get("nav_topic")
+        return (given or GuidanceConfig.from_config(self.scenario.data["guidance"]).nav_topic).lstrip("/")
 
     def _clock_gate(self) -> dict:
         """The time source waits for these nodes' allowances (hyper_nav_filter.clock_gate): on a
@@ -262,6 +272,7 @@ class Graph:
             return {}
         names = ["fusion"] if "fusion" in self.nodes else []
         names += [node.ros_name or node.name for node in self._aiding() if node.gates_clock]
+        names += ["guidance"] if "guidance" in self.nodes else []      # its input matched first (issue 36)
         if self.record:
             names.append("recorder")
         return {"allowance_nodes": names} if names else {}
@@ -316,6 +327,13 @@ class Graph:
             if waits:
                 p.update({"wait_topics": list(waits), "wait_counts": list(waits.values())})
             p.update(self._clock_gate())
+            if "guidance" in self.nodes:         # the flight waits for its commands (issue 36)
+                p["command_publishers"] = 1
+                nav = self._guidance_nav_topic()  # and for the guidance's subscription to its navigation
+                if nav != "truth/state":
+                    waits = dict(zip(p.get("wait_topics", []), p.get("wait_counts", [])))
+                    waits[nav] = max(waits.get(nav, 0), self._subscribers([nav]))
+                    p.update(wait_topics=list(waits), wait_counts=list(waits.values()))
         elif name == "fusion":
             p = fusion_parameters(self.scenario)
             # each output is published only once its subscribers exist; the user's own
@@ -333,6 +351,8 @@ class Graph:
             p = node.parameters(self.scenario)
             if node.output_wait_parameter:
                 p[node.output_wait_parameter] = self._subscribers(node.outputs(self.scenario.data.get(node.block) or {}))
+        elif name == "guidance":
+            p = {"scenario": sc_path, "diagnostics_period_s": diag}
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}

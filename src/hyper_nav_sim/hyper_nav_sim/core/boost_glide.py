@@ -215,6 +215,14 @@ class DynamicTrajectory:
         ``boost_glide_config`` for the fields. Raises ValueError naming the field."""
         return cls(**parse_flight(d))
 
+    # ---- live commands (``commanded_flight.CommandedFlight``) -------------------
+    _active_command = None          # (sigma_cmd_rad, c_l_cmd) held by ``_rhs`` over a segment, or None
+
+    def _commands_at(self, t):
+        """External commands in force at times t: None (the scheduled program
+        flies), or (mask, sigma_cmd_rad, c_l_cmd) arrays; see CommandedFlight."""
+        return None
+
     # ---- programs -----------------------------------------------------------
     def _lateral_load_g(self, t):
         n = np.zeros_like(t)
@@ -355,6 +363,10 @@ class DynamicTrajectory:
                        veh.c_l_min, veh.c_l_max)
         cl_cmd = (1.0 - w_g) * (veh.cl_alpha_per_rad * alpha_b / veh.cl_star) + w_g * cl_g
         sig_cmd = w_g * sig_g
+        live = self._commands_at(t)            # external (live) commands replace the program's
+        if live is not None:
+            on, sig_ext, cl_ext = live
+            sig_cmd, cl_cmd = np.where(on, sig_ext, sig_cmd), np.where(on, cl_ext, cl_cmd)
         r_s, r_c = veh.bank_rate_max_radps, veh.c_l_rate_max_per_s
         sig_dot = r_s * np.tanh((sig_cmd - sig) / (veh.bank_time_constant_s * r_s))
         cl_dot = r_c * np.tanh((cl_cmd - cl) / (veh.c_l_time_constant_s * r_c))
@@ -502,6 +514,8 @@ class DynamicTrajectory:
                        veh.c_l_min), veh.c_l_max)
         cl_cmd = (1.0 - w_g) * (veh.cl_alpha_per_rad * alpha_b / veh.cl_star) + w_g * cl_g
         sig_cmd = w_g * sig_g
+        if self._active_command is not None:   # a live command held over this integration segment
+            sig_cmd, cl_cmd = self._active_command
         r_s, r_c = veh.bank_rate_max_radps, veh.c_l_rate_max_per_s
         sig_dot = r_s * math.tanh((sig_cmd - sig) / (veh.bank_time_constant_s * r_s))
         cl_dot = r_c * math.tanh((cl_cmd - cl) / (veh.c_l_time_constant_s * r_c))

@@ -114,7 +114,8 @@ SCHEMA = {
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
 # (and the aiding nodes' blocks: core.aiding_nodes, read from the installed descriptors)
-OPTIONAL_BLOCKS = ("flight", "trajectory_file", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "tracker_augmented", "world")
+OPTIONAL_BLOCKS = ("flight", "trajectory_file", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "tracker_augmented",
+                   "world", "guidance")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
             "graph.qos_depth",
@@ -128,7 +129,8 @@ MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
 # hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids);
 # the aiding nodes' blocks too (their descriptors' validators, see opaque_blocks)
 OPAQUE_BLOCKS = {"flight", "trajectory_file", "gnss.raw.lock.sat_outages", "filter.sources",   # filter.sources: sources.parse_sources
-                 "world"}                          # core.world.WorldConfig
+                 "world",                          # core.world.WorldConfig
+                 "guidance"}                       # core.guidance_config.GuidanceConfig
 
 
 def opaque_blocks() -> set[str]:
@@ -529,6 +531,7 @@ def _validate_models(data: dict, source: str) -> None:
     """The optional model blocks validate themselves; errors name the field."""
     from .baro_model import BaroErrors
     from .boost_glide_config import parse_flight
+    from .guidance_config import GuidanceConfig
     from .imu_model import ImuErrors
     from .lever_arm import LeverArmConfig
     from .mag_model import MagnetometerErrors
@@ -541,6 +544,7 @@ def _validate_models(data: dict, source: str) -> None:
               ("imu", lambda d: ImuErrors.from_config(d)),
               ("magnetometer", lambda d: MagnetometerErrors.from_config(d)),
               ("flight", lambda d: parse_flight(d)),
+              ("guidance", lambda d: GuidanceConfig.from_config(d)),
               ("lever_arm", lambda d: LeverArmConfig.from_config(d)),
               ("barometer", lambda d: BaroErrors.from_config(d, prefix="barometer"))]
     for key, check in checks:
@@ -579,6 +583,8 @@ def _validate_models(data: dict, source: str) -> None:
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(f"{source}: {msg if msg.startswith('gnss') else 'gnss.raw.' + msg}") from None
+    if "guidance" in data and "flight" not in data:
+        raise ScenarioError(f"{source}: guidance: needs a 'flight' block (the boost-glide truth it steers)")
     if "flight" in data and "maneuvers" in data:
         raise ScenarioError(f"{source}: give either 'flight' (dynamic) or 'maneuvers' (kinematic), not both "
                             f"(a file that extends a kinematic scenario removes them with 'maneuvers: null')")

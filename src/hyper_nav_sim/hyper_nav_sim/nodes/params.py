@@ -54,6 +54,9 @@ TRUTH = (
     ParamSpec("allowance_timeout_s", FLOAT, 10.0, "a waited-for node silent this long (wall s) is no longer "
               "waited for", lo=0.0, lo_open=True),
     ParamSpec("tail_s", FLOAT, 1.0, "sim time flown past duration_s so that late releases go out (s)", lo=0.0),
+    ParamSpec("command_publishers", INT, 0, "guidance nodes in the loop: publishers of the command topic "
+              "(remappable 'guidance/command', hyper_nav_msgs/GlideCommand) awaited before the clock starts; "
+              "with a scenario guidance: block the flight then waits for every command due (issue 36)", lo=0),
     ParamSpec("frames.enu", STR, "enu", "frame_id of the ENU (map) frame"),
     ParamSpec("frames.body", STR, "base_link", "frame_id of the body frame"),
     DIAG_PERIOD,

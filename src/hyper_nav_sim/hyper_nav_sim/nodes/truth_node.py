@@ -22,23 +22,43 @@ test's or user's own subscriber sees the first message (``Graph(...,
 extra_subscribers=...)``). Its ``/diagnostics`` status carries ``sim_time_s``
 and ``heartbeat`` every ``diagnostics_period_s`` of wall time, and a last one
 with ``finished: true``.
+
+Live commands (issue 36): with a scenario ``guidance:`` block and a
+``flight:`` block, the flight is a ``core.commanded_flight.CommandedFlight``
+stepped as the clock advances, with the bank and lift commands received on
+``command_topic`` (``guidance.command_topic``, remappable;
+``hyper_nav_msgs/GlideCommand``). A command stamped t_nav applies at the
+declared step ceil((t_nav + guidance.apply_delay_s) / guidance.period_s),
+and when a guidance is in the loop (``command_publishers`` > 0, or a
+publisher present when the clock starts) the clock never passes a step
+whose commands are not all in (``CommandLoop``): the same commands give the
+same flight, live or offline, bit for bit. Without a publisher the
+scheduled program flies. Refused commands (out of range, NaN, late) are
+counted on /diagnostics by reason; a command awaited for
+``guidance.command_timeout_s`` of wall time is given up (``commands missed``).
+The truth stops at the flight's end (e.g. ``flight.end_alt_m``); the clock
+runs on to duration_s. The sensor nodes still fly the scheduled program:
+navigation in this loop is not yet the steered flight's (issue 36 report).
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 import rclpy
-from hyper_nav_msgs.msg import NavState
+from hyper_nav_msgs.msg import GlideCommand, NavState
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from hyper_nav_filter.clock_gate import AllowanceGate
-from hyper_nav_filter.conversions import s_to_stamp_fields
+from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
 from hyper_nav_filter.ros_util import all_matched, declare_params, publisher_qos, run_node
 
+from ..core.commanded_flight import CommandedFlight, CommandLoop
+from ..core.guidance_config import GuidanceConfig
 from ..core.imu_model import ImuErrors
 from ..core.scenario import load_scenario
 from .params import TRUTH, TRUTH_FROM_SCENARIO, with_scenario
@@ -74,11 +94,17 @@ class TruthNode(Node):
         truth_every = max(1, int(round(sc["graph.clock_rate_hz"] / sc["graph.truth_rate_hz"])))
         steps = np.arange(0, int(np.floor(sc["duration_s"] / base_step_s + 1e-9)) + 1)
         t_truth = steps[steps % truth_every == 0] * base_step_s
-        self.truth = sc.trajectory().truth(t_truth)
+        self._t_truth = t_truth
+        self.loop = None
+        self.counts = {"published /clock": 0, "published truth/state": 0}
+        if "guidance" in sc.data and "flight" in sc.data:
+            self._setup_commands(sc, p)
+            self.truth = None
+        else:
+            self.truth = sc.trajectory().truth(t_truth)
         self._truth_idx = 0
         self.imu_errors = ImuErrors.from_scenario(sc)
         self.k = 0
-        self.counts = {"published /clock": 0, "published truth/state": 0}
         self.t_wall0 = None
         self.done = False
         self.gate = AllowanceGate(self, p["allowance_nodes"], p["allowance_timeout_s"])
@@ -90,7 +116,13 @@ class TruthNode(Node):
                 and all_matched([self.pub_truth], self.min_subscribers)
                 and all(self.count_subscribers(t) >= n for t, n in zip(self.wait_topics, self.wait_counts))):
             return
+        if self.loop is not None and self.count_publishers(self.sub_cmd.topic_name) < self.command_publishers:
+            return
         self.timer.cancel()
+        if self.loop is not None:
+            self.loop.expect = self.count_publishers(self.sub_cmd.topic_name) > 0
+            self.get_logger().info("flight commanded live on " + self.sub_cmd.topic_name if self.loop.expect
+                                   else "no command publisher: the scenario's program flies")
         self.gate.restart()                    # the nodes' not-heard timeout counts from the start of the flight
         self.get_logger().info(f"subscribers matched; flying {self.scenario.name} at {self.rtf}x real time")
         self.t_wall0 = time.monotonic()
@@ -103,6 +135,8 @@ class TruthNode(Node):
         if self.k * self.step_s > self.scenario["duration_s"] + 1e-9:
             limit = float("inf")          # the tail: no sensor data any more, nothing to wait for
         allowed = paced if limit == float("inf") else int(np.floor(limit / self.step_s + 1e-9))
+        if self.loop is not None:         # and never past the flight the commands due allow
+            allowed = min(allowed, self._fly_to(min(self.n_steps, paced)))
         if allowed < paced:
             self.t_wall0 += self.timer.timer_period_ns * 1e-9          # held: the pace resumes from here
             self.gate.held_s += self.timer.timer_period_ns * 1e-9
@@ -126,26 +160,90 @@ class TruthNode(Node):
             self.get_logger().info("scenario finished")
             rclpy.try_shutdown()
 
+    # ---- live commands ------------------------------------------------------------
+    def _setup_commands(self, sc, p):
+        cfg = self.guidance = GuidanceConfig.from_config(sc.data["guidance"])
+        flight = CommandedFlight.from_config(dict(sc.data["flight"], duration_s=sc.data["flight"].get(
+            "duration_s", sc["duration_s"])), step_s=cfg.period_s, apply_delay_s=cfg.apply_delay_s,
+            bank_max_rad=cfg.bank_limit_rad)
+        self.flight = flight
+        self.loop = CommandLoop(flight, cfg.t_start_s, expect=False)
+        self.command_publishers = p["command_publishers"]
+        self.sub_cmd = self.create_subscription(GlideCommand, cfg.command_topic, self._on_command,
+                                                publisher_qos(sc["graph.qos_depth"]))
+        self._wait_since = None
+        self.counts.update({"commands received": 0, "commands accepted": 0, "commands missed": 0})
+
+    def _on_command(self, msg):
+        self.counts["commands received"] += 1
+        t = stamp_to_s(msg.header.stamp)
+        why = self.loop.receive(t, msg.bank_rad, msg.c_l)
+        if why is None:
+            self.counts["commands accepted"] += 1
+        else:
+            key = f"commands refused {why}"
+            self.counts[key] = self.counts.get(key, 0) + 1
+            self.get_logger().warning(f"command at {t:.3f} s refused ({why}): bank {msg.bank_rad!r} rad, "
+                                      f"c_l {msg.c_l!r}")
+
+    def _fly_to(self, target: int) -> int:
+        """Integrate the flight as far as the commands allow toward clock step
+        ``target``; returns the last clock step whose truth exists."""
+        f = self.flight
+        h = f.step_s
+        t_goal = target * self.step_s
+        self.loop.advance(math.ceil(t_goal / h - 1e-9) * h)
+        if f.finished:
+            return target
+        k_ok = int(np.floor(f.flown_s / self.step_s + 1e-9))
+        awaited = self.loop.waiting_for_s() if k_ok < target else None
+        if awaited is not None:
+            now = time.monotonic()
+            if self._wait_since is None or self._wait_since[1] != awaited:
+                self._wait_since = (now, awaited)          # the timeout counts per awaited command
+            elif now - self._wait_since[0] > self.guidance.command_timeout_s:
+                self.get_logger().warning(f"no command for the navigation stamp {self.loop.waiting_for_s():.3f} s "
+                                          f"after {self.guidance.command_timeout_s:g} s (wall): flying on the last")
+                self.loop.give_up()
+                self.counts["commands missed"] = self.loop.missed
+                self._wait_since = None
+        else:
+            self._wait_since = None
+        return k_ok
+
     def _publish_truth_until(self, t):
+        if self.truth is None:
+            self._publish_live_truth_until(t)
+            return
         tr = self.truth
         while self._truth_idx < len(tr.t_s) and tr.t_s[self._truth_idx] <= t + 1e-9:
-            i = self._truth_idx
-            m = NavState()
-            m.header.stamp.sec, m.header.stamp.nanosec = s_to_stamp_fields(tr.t_s[i])
-            m.header.frame_id, m.child_frame_id = self.enu_frame, self.body_frame
-            m.mode, m.mechanization_frame = NavState.MODE_TRUTH, "TRUTH"
-            m.lat_rad, m.lon_rad, m.alt_m = float(tr.lat_rad[i]), float(tr.lon_rad[i]), float(tr.alt_m[i])
-            m.vel_enu_mps = tr.vel_enu_mps[i].tolist()
-            q = C_to_quat_xyzw(tr.C_b_n[i])
-            m.q_b_enu.x, m.q_b_enu.y, m.q_b_enu.z, m.q_b_enu.w = map(float, q)
-            m.roll_rad, m.pitch_rad, m.heading_rad = float(tr.roll_rad[i]), float(tr.pitch_rad[i]), float(tr.heading_rad[i])
-            m.omega_ib_b_radps = tr.omega_ib_b_radps[i].tolist()
-            m.accel_b_mps2 = tr.f_b_mps2[i].tolist()
-            m.gyro_bias_b_radps = self.imu_errors.gyro_bias_b_radps.tolist()
-            m.accel_bias_b_mps2 = self.imu_errors.accel_bias_b_mps2.tolist()
-            self.pub_truth.publish(m)
-            self.counts["published truth/state"] += 1
+            self._publish_sample(tr, self._truth_idx)
             self._truth_idx += 1
+
+    def _publish_live_truth_until(self, t):
+        f, ts = self.flight, self._t_truth
+        while (self._truth_idx < len(ts) and ts[self._truth_idx] <= t + 1e-9
+               and ts[self._truth_idx] <= f.flown_s + 1e-9):
+            i = self._truth_idx
+            self._publish_sample(f.truth(ts[i:i + 1]), 0)     # one epoch at a time, as the offline loop
+            self._truth_idx += 1
+
+    def _publish_sample(self, tr, i):
+        m = NavState()
+        m.header.stamp.sec, m.header.stamp.nanosec = s_to_stamp_fields(tr.t_s[i])
+        m.header.frame_id, m.child_frame_id = self.enu_frame, self.body_frame
+        m.mode, m.mechanization_frame = NavState.MODE_TRUTH, "TRUTH"
+        m.lat_rad, m.lon_rad, m.alt_m = float(tr.lat_rad[i]), float(tr.lon_rad[i]), float(tr.alt_m[i])
+        m.vel_enu_mps = tr.vel_enu_mps[i].tolist()
+        q = C_to_quat_xyzw(tr.C_b_n[i])
+        m.q_b_enu.x, m.q_b_enu.y, m.q_b_enu.z, m.q_b_enu.w = map(float, q)
+        m.roll_rad, m.pitch_rad, m.heading_rad = float(tr.roll_rad[i]), float(tr.pitch_rad[i]), float(tr.heading_rad[i])
+        m.omega_ib_b_radps = tr.omega_ib_b_radps[i].tolist()
+        m.accel_b_mps2 = tr.f_b_mps2[i].tolist()
+        m.gyro_bias_b_radps = self.imu_errors.gyro_bias_b_radps.tolist()
+        m.accel_bias_b_mps2 = self.imu_errors.accel_bias_b_mps2.tolist()
+        self.pub_truth.publish(m)
+        self.counts["published truth/state"] += 1
 
     def on_shutdown(self):
         """Final status on SIGINT/SIGTERM (ros_util.run_node): exact counts."""
