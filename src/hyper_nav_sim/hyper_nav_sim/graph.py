@@ -261,6 +261,8 @@ class Graph:
         if not self.scenario["graph.clock_gate"]:
             return {}
         names = ["fusion"] if "fusion" in self.nodes else []
+        # the producers too: a starved or frozen sensor node holds the clock instead of bursting (issue 33)
+        names += [ros_name(n) for n in self._sensor_nodes()]
         names += [node.ros_name or node.name for node in self._aiding() if node.gates_clock]
         if self.record:
             names.append("recorder")

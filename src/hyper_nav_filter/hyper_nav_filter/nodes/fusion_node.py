@@ -20,6 +20,7 @@ import importlib
 import time
 
 import numpy as np
+import rclpy.clock
 from diagnostic_msgs.msg import DiagnosticArray
 from hyper_nav_msgs.msg import LateInput
 from hyper_nav_msgs.msg import NavState as NavStateMsg
@@ -35,7 +36,7 @@ from ..core.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
-from ..clock_gate import ClockAllowance, InputsReady
+from ..clock_gate import ClockAllowance, InputsIdle, InputsReady
 from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
@@ -134,6 +135,10 @@ class FusionNode(Node):
                       if inp.role == "main"]
         self.allowance = ClockAllowance(self, ready=InputsReady(self, lambda: self._input_subs, required=imu_topics))
         self._clock_s = -np.inf          # the newest /clock taken (in this executor, beside the inputs)
+        # every declared input, whatever its rate (issue 33): the clock stays clock.lead_s ahead of the last
+        # moment all input queues were empty (seen without taking: the executor keeps its order)
+        self._idle = InputsIdle(self, lambda: self._input_subs, p["clock.lead_s"], lambda: self._clock_s)
+        self.create_timer(0.05, self._check_idle, clock=rclpy.clock.Clock(clock_type=rclpy.clock.ClockType.STEADY_TIME))
         self._set_allowance()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
@@ -229,7 +234,11 @@ class FusionNode(Node):
         # 1100 messages behind at real-time factor 2 on a loaded machine)
         held = sum(s.n_held_imu for s in self.router.sources)
         t = self._clock_s if self._clock_s > t_imu + self.p["clock.imu_gap_s"] and not held else t_imu
-        self.allowance.set(t + lead)
+        self.allowance.set(min(t + lead, self._idle.allowance_s()))
+
+    def _check_idle(self):
+        if self._idle.check():
+            self._set_allowance()
 
     def _publish_late(self, msg, report, outcome):
         """Report an input received behind the IMU (``nav/late_inputs``), so a

@@ -34,6 +34,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
+from hyper_nav_filter.clock_gate import InputDrain
 from hyper_nav_filter.ros_util import declare_params, publisher_qos, run_node
 
 from ..core.liveness import ERROR, OK, STALE, WARN, LivenessConfig, LivenessMonitor, StreamSpec
@@ -61,8 +62,11 @@ class MonitorNode(Node):
         self.core = LivenessMonitor(cfg, time.monotonic())
         self.beats = 0
         self.pub = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
-        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, publisher_qos(1000))
-        self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))
+        subs = [self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, publisher_qos(1000)),
+                self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))]
+        # verdicts only on what has arrived: the executor runs a due timer before the messages queued beside
+        # it, so a monitor that was frozen (SIGSTOP) or starved would call every node dead on resuming
+        self.inputs = InputDrain(self, lambda: subs, lead_s=0.0)
         self.create_timer(p["diagnostics_period_s"], self.publish)
         self._last_level = {}
 
@@ -77,6 +81,7 @@ class MonitorNode(Node):
             self.core.on_status(st.hardware_id, {kv.key: kv.value for kv in st.values}, now)
 
     def publish(self) -> None:
+        self.inputs.drain()
         verdicts = self.core.evaluate(time.monotonic())
         self.beats += 1
         arr = DiagnosticArray()
