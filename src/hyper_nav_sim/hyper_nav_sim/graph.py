@@ -618,7 +618,9 @@ def _main(argv, state) -> int:
             try:
                 from .progress import ClockProgress             # sim time, real-time factor, ETA every 10 s
                 with ClockProgress(g.domain_id, float(g.scenario["duration_s"])):
-                    g.wait_until_done()
+                    # no wall-time limit: on a loaded machine the clock gate slows the flight down instead of
+                    # losing data (a frozen node holds it, a dead one is dropped after its timeout); SIGINT stops it
+                    g.wait_until_done(timeout_s=float("inf"))
             except Interrupted as exc:
                 interrupted = exc
                 g.stop_reason = f"{exc} after {time.monotonic() - t0:.1f} s"
