@@ -333,6 +333,7 @@ class InputsIdle:
         self.pace = DrainPace(lead_s)
         self.checks = 0
         self.idle = 0
+        self._ws = None
 
     def check(self) -> bool:
         """Whether every input queue is empty now (then ``pace`` moves on)."""
@@ -345,7 +346,9 @@ class InputsIdle:
             for sub in subs:
                 stack.enter_context(sub.handle)
             stack.enter_context(self.node.context.handle)
-            ws = self._rclpy.WaitSet(len(subs), 0, 0, 0, 0, 0, self.node.context.handle)
+            if self._ws is None or self._ws[0] != subs:      # one wait set while the inputs stay the same
+                self._ws = (subs, self._rclpy.WaitSet(len(subs), 0, 0, 0, 0, 0, self.node.context.handle))
+            ws = self._ws[1]
             ws.clear_entities()
             for sub in subs:
                 ws.add_subscription(sub.handle)
