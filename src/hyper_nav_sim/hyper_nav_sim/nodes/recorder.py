@@ -20,8 +20,8 @@ Publishes the per-topic counts every second on /recorder/counts
 and its status with a ``heartbeat`` on /diagnostics ("hyper_nav_sim: recorder",
 ``recorded <topic>``) every ``diagnostics_period_s`` (1.0 s).
 
-Nothing is lost silently: a topic with one publisher carries the writer's
-sequence number with each message (``publication_sequence_number``); a jump
+Nothing is lost silently: a topic with one publisher (never more) carries
+the writer's sequence number with each message (``publication_sequence_number``); a jump
 is a message that never reached the bag (the subscription's queue overflowed,
 a writer's history overwrote it). It is counted per topic (``lost <topic>``
 on /diagnostics and /recorder/counts, the status then ERROR, so the report
@@ -86,6 +86,7 @@ class Recorder(Node):
         self.subs = {}  # topic -> subscription (None: not recordable)
         self.lost: dict[str, int] = {}       # topic -> messages that never reached the bag (sequence gaps)
         self._seq: dict[str, int] = {}       # topic -> the last publication sequence number taken
+        self._multi: set[str] = set()        # topics seen with several publishers (sequences interleave)
         self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
         # the clock waits for this recorder: the node clock at which it last found every recorded topic's
         # queue empty + clock.lead_s (clock_gate.InputDrain: any stream, whatever its rate; its node clock
@@ -140,9 +141,14 @@ class Recorder(Node):
         seq = info.get("publication_sequence_number", 0) if info else 0
         if seq <= 0:                           # (an rmw without sequence numbers: 0 or max uint64)
             return
+        if topic in self._multi:
+            return
+        if self.subs[topic].get_publisher_count() > 1:   # a message carries no writer id: one writer only
+            self._multi.add(topic)
+            return
         last = self._seq.get(topic)
         self._seq[topic] = seq
-        if last is not None and seq > last + 1 and self.subs[topic].get_publisher_count() == 1:
+        if last is not None and seq > last + 1:
             gap = seq - last - 1
             if gap < 2**32:                    # not an rmw's "unsupported" value
                 self.lost[topic] = self.lost.get(topic, 0) + gap
