@@ -67,7 +67,9 @@ class MonitorNode(Node):
         # verdicts only on what has arrived: the executor runs a due timer before the messages queued beside
         # it, so a monitor that was frozen (SIGSTOP) or starved would call every node dead on resuming
         self.inputs = InputDrain(self, lambda: subs, lead_s=0.0)
-        self.create_timer(p["diagnostics_period_s"], self.publish)
+        self.period_s = p["diagnostics_period_s"]
+        self._last_wall = None
+        self.create_timer(self.period_s, self.publish)
         self._last_level = {}
 
     def _on_clock(self, msg: Clock) -> None:
@@ -81,6 +83,14 @@ class MonitorNode(Node):
             self.core.on_status(st.hardware_id, {kv.key: kv.value for kv in st.values}, now)
 
     def publish(self) -> None:
+        now, last = time.monotonic(), self._last_wall
+        self._last_wall = now
+        if last is not None and now - last > 3.0 * self.period_s + 1.0:
+            # this monitor did not run (frozen, starved): the silence was its own, and what the others sent
+            # meanwhile may still be on its way in (its DDS threads stopped too): no verdict this time
+            self.get_logger().warning(f"monitor: not run for {now - last:.1f} s (wall); verdicts resume next period")
+            self.inputs.drain()
+            return
         self.inputs.drain()
         verdicts = self.core.evaluate(time.monotonic())
         self.beats += 1
