@@ -25,7 +25,9 @@ the writer's sequence number with each message (``publication_sequence_number``)
 is a message that never reached the bag (the subscription's queue overflowed,
 a writer's history overwrote it). It is counted per topic (``lost <topic>``
 on /diagnostics and /recorder/counts, the status then ERROR, so the report
-fails) and printed when the bag is closed.
+fails) and printed when the bag is closed. (A loss before a topic's first
+recorded message or after its last leaves no gap to see: the report's check
+of every publisher's count against the bag covers those.)
 
 The clock allowance (``hyper_nav_filter.clock_gate.InputDrain``): every
 queue is taken whole in each pass, and the clock may run ``clock.lead_s``
