@@ -15,7 +15,10 @@ What the nodes allow (README, Timing):
 
 * fusion: its newest IMU epoch + ``clock.lead_s`` (it never lags further);
   the ``/clock`` it took + ``clock.lead_s`` once that is ``clock.imu_gap_s``
-  past its newest IMU (a gap in the IMU data: nothing to wait for);
+  past its newest IMU (a gap in the IMU data: nothing to wait for); and never
+  more than the ``/clock`` at which it last found every declared input's
+  queue empty + ``clock.lead_s`` (``InputsIdle``: seen through a wait set of
+  its own, nothing taken, so its executor's order of processing stays);
 * recorder: the node clock at which it last found *every* recorded topic's
   queue empty + ``clock.lead_s`` (``InputDrain``: each pass takes all that is
   queued on every subscription; the rule covers any stream, so adding one
