@@ -69,6 +69,7 @@ class MonitorNode(Node):
         self.inputs = InputDrain(self, lambda: subs, lead_s=0.0)
         self.period_s = p["diagnostics_period_s"]
         self._last_wall = None
+        self._quiet_until = 0.0          # no verdicts before (wall): the monitor itself did not run
         self.create_timer(self.period_s, self.publish)
         self._last_level = {}
 
@@ -87,8 +88,12 @@ class MonitorNode(Node):
         self._last_wall = now
         if last is not None and now - last > 3.0 * self.period_s + 1.0:
             # this monitor did not run (frozen, starved): the silence was its own, and what the others sent
-            # meanwhile may still be on its way in (its DDS threads stopped too): no verdict this time
-            self.get_logger().warning(f"monitor: not run for {now - last:.1f} s (wall); verdicts resume next period")
+            # meanwhile may still be on its way in (its DDS threads stopped too): no verdicts for two periods
+            # (an overdue timer fires again at once)
+            self.get_logger().warning(f"monitor: not run for {now - last:.1f} s (wall); no verdicts for "
+                                      f"{2.0 * self.period_s:g} s")
+            self._quiet_until = now + 2.0 * self.period_s
+        if now < self._quiet_until:
             self.inputs.drain()
             return
         self.inputs.drain()
