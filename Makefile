@@ -6,12 +6,14 @@ RUN_ARGS ?=
 RUN_NAME ?= $(notdir $(basename $(SCENARIO)))_$(shell date +%Y%m%d-%H%M%S)
 ENV := source tools/env.sh &&
 
-.PHONY: setup run test clean bench help train-lekf repro-guidance repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk study-lincov study-lincov-mc \
+.PHONY: setup run load-run test clean bench help train-lekf repro-guidance repro-seed000 repro-seed001 repro-seed002 repro-seed003 repro-seed004 repro-aided-tracking repro-walk study-lincov study-lincov-mc \
 	seed003 seed004 reproduce-seed000
 
 help:
 	@echo "make run   - set up, run the node graph on SCENARIO=$(SCENARIO), record bags/$(RUN_NAME), report"
 	@echo "             (RUN_ARGS=\"--set duration_s=60\" passes more run_graph arguments; exits 1 if the report fails)"
+	@echo "make load-run - make run under load: a busy process per core (nice 0), every node frozen 5 s in turn"
+	@echo "             (LOAD_ARGS=\"--freeze-each 5\" passes load_flight options, e.g. --cores 0; PASS = nothing lost)"
 	@echo "make test  - set up and run the whole test suite"
 	@echo "make bench - print performance figures"
 	@echo "make clean - remove build outputs (build/ install/ log/); .venv stays"
@@ -36,6 +38,10 @@ setup:
 
 run: setup
 	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report $(RUN_ARGS)
+
+LOAD_ARGS ?= --freeze-each 5
+load-run: setup
+	@$(ENV) ros2run hyper_nav_sim load_flight $(LOAD_ARGS) -- --scenario $(SCENARIO) --record bags/load_$(RUN_NAME) --report $(RUN_ARGS)
 
 # the node-graph tests one at a time and, beside them at nice 19, the unit tests on
 # two workers (tools/run_tests.sh); TEST_ARGS go to both pytest runs

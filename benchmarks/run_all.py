@@ -20,7 +20,9 @@
 4. (``--live``) the live node graph: the highest lossless real-time factor
    (fusion received == published on every input, from its /diagnostics) for
    the default scenario (50 Hz IMU) and seed 001 at its native 500 Hz, and
-   the fusion node's CPU share at that factor.
+   the fusion node's CPU share at that factor; and the recorder's own
+   lossless rate (``recorder_rate.py``: messages/s and MB/s, and that the
+   loss beyond it is counted by the recorder).
 
 Options: ``--quick`` (shorter flights, a 300 s peer-format set), ``--live``, ``--json PATH``,
 ``--no-user-path``, ``--reference``, ``--peer CMD``, ``--peer-data DIR``.
@@ -225,6 +227,9 @@ def main(argv=None) -> int:
     if args.live:
         from live_graph import live_search
         out["live"] = live_search(quick=args.quick)
+        from recorder_rate import recorder_limits             # the recorder's own lossless rate (issue 33)
+        print("\n== recorder: highest lossless total message rate ==")
+        out["recorder"] = recorder_limits(quick=args.quick)
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps(out, indent=2, default=float))
     return 0

@@ -32,6 +32,7 @@ setup(
             "player = hyper_nav_sim.nodes.player:main",
             "monitor = hyper_nav_sim.nodes.monitor:main",
             "run_graph = hyper_nav_sim.graph:main",
+            "load_flight = hyper_nav_sim.load_harness:main",
             "report = hyper_nav_sim.report:main",
             "replay_filter = hyper_nav_sim.replay_filter:main",
             "plot_scenarios = hyper_nav_sim.plot:main",

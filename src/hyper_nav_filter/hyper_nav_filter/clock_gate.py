@@ -15,11 +15,21 @@ What the nodes allow (README, Timing):
 
 * fusion: its newest IMU epoch + ``clock.lead_s`` (it never lags further);
   the ``/clock`` it took + ``clock.lead_s`` once that is ``clock.imu_gap_s``
-  past its newest IMU (a gap in the IMU data: nothing to wait for);
-* recorder: the header stamp of the newest IMU message it wrote +
-  ``clock.lead_s`` (``hyper_nav_sim/core/record_pace.py``; its node clock is
-  the newest ``/clock``, which says nothing of its queues), its node clock +
-  ``clock.lead_s`` while the IMU stream is silent;
+  past its newest IMU (a gap in the IMU data: nothing to wait for); and never
+  more than the ``/clock`` at which it last found every declared input's
+  queue empty + ``clock.lead_s`` (``InputsIdle``: seen through a wait set of
+  its own, nothing taken, so its executor's order of processing stays);
+* recorder: the node clock at which it last found *every* recorded topic's
+  queue empty + ``clock.lead_s`` (``InputDrain``: each pass takes all that is
+  queued on every subscription; the rule covers any stream, so adding one
+  cannot reopen a hole. It followed the newest IMU stamp written until
+  issue 33: the 400 Hz ``imu/load`` stream was not in it);
+* sensor nodes (the producers): the ``/clock`` they have worked through +
+  ``clock.lead_s`` (inf once their whole stream is out), so a sensor node
+  that is starved or frozen holds the clock instead of releasing, when it
+  resumes, a burst of seconds of data deeper than its consumers' queues
+  (issue 33: the IMU node frozen 5 s lost 354 ``imu/load`` messages at the
+  recorder);
 * aiding nodes with an output pending for an epoch t (a geomagnetic fix, a
   virtual GNSS epoch, a learned model update stamped t): t +
   ``clock.deadline_s`` (the fusion node's ``output_delay_s`` minus a margin),
@@ -42,11 +52,14 @@ docs/faults-and-timing.md).
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 
 from diagnostic_msgs.msg import KeyValue
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import InvalidHandle
+from rclpy.subscription import Subscription
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 TOPIC = "/graph/allowance"
@@ -204,3 +217,155 @@ class AllowanceGate:
             self.node.get_logger().warning(f"clock gate: {name} {why} for {t:g} s (wall); "
                                            "not waiting for it while it stays so")
         self.dropped.add(name)
+
+
+class DrainPace:
+    """The back-pressure rule of a consumer, pure (no rclpy): the clock may
+    run ``lead_s`` ahead of the node clock at which the node last found every
+    input queue empty (``drained(clock_s)`` after such a pass). A backlog on
+    any input, of any rate, holds it; a node whose queues are all empty
+    allows its clock + ``lead_s``. Before the first pass: the clock +
+    ``lead_s`` (nothing received yet, nothing queued)."""
+
+    def __init__(self, lead_s: float):
+        self.lead_s = float(lead_s)
+        self.clock_s: float | None = None
+
+    def drained(self, clock_s: float) -> None:
+        self.clock_s = clock_s if self.clock_s is None else max(self.clock_s, clock_s)
+
+    def allowance_s(self, clock_s: float) -> float:
+        return (clock_s if self.clock_s is None else self.clock_s) + self.lead_s
+
+
+class InputDrain:
+    """Take everything queued on a node's input subscriptions, and know the
+    node clock at which all of them were last found empty (``pace``).
+
+    The rclpy executor takes *one* message per ready subscription per wait:
+    a node that is short of CPU then takes its 400 Hz stream at the rate of
+    its 50 Hz one, and the fast stream's queue (KEEP_LAST) overflows while
+    the slow one looks current. ``drain()`` takes each subscription until it
+    is empty (at most ``max_per_topic`` per pass, so timers still run; a
+    pass cut short proves nothing and leaves ``pace`` as it was), calling
+    its callback, and records the node clock read at the start of a pass
+    that emptied them all: every message queued then has been taken.
+
+    Call it from the node's own executor thread (a timer, a callback, the
+    spin loop): it runs callbacks. Re-entrant calls return at once."""
+
+    def __init__(self, node, subscriptions, lead_s: float, max_per_topic: int = 2000, clock_s=None):
+        """``subscriptions``: a callable returning the input subscriptions
+        (rclpy ``Subscription``; they may be created later). ``clock_s``: a
+        callable giving the node's sim time (default: the node clock)."""
+        self.node = node
+        self.subscriptions = subscriptions
+        self._clock_s = clock_s
+        self.pace = DrainPace(lead_s)
+        self.max_per_topic = int(max_per_topic)
+        self.taken = 0                    # messages taken by drain() (beside those the executor took)
+        self.passes = 0
+        self.cut_short = 0                # passes that hit max_per_topic on some subscription
+        self._busy = False
+
+    def now_s(self) -> float:
+        if self._clock_s is not None:
+            return float(self._clock_s())
+        return self.node.get_clock().now().nanoseconds * 1e-9
+
+    def drain(self) -> int:
+        """One pass over every subscription; the number of messages taken."""
+        if self._busy:
+            return 0
+        self._busy = True
+        try:
+            clock_s, n, empty = self.now_s(), 0, True
+            for sub in list(self.subscriptions()):
+                k = 0
+                while k < self.max_per_topic:
+                    try:
+                        with sub.handle:
+                            info = sub.handle.take_message(sub.msg_type, sub.raw)
+                    except InvalidHandle:            # destroyed meanwhile
+                        break
+                    if info is None:
+                        break
+                    k += 1
+                    if sub._callback_type is Subscription.CallbackType.MessageOnly:
+                        sub.callback(info[0])
+                    else:
+                        sub.callback(*info)
+                else:
+                    empty = False
+                n += k
+            self.taken += n
+            self.passes += 1
+            if empty:
+                self.pace.drained(clock_s)
+            else:
+                self.cut_short += 1
+            return n
+        finally:
+            self._busy = False
+
+    def allowance_s(self) -> float:
+        """Drain, then the clock limit this node allows (``DrainPace``)."""
+        self.drain()
+        return self.pace.allowance_s(self.now_s())
+
+
+class InputsIdle:
+    """The same rule as ``InputDrain`` without taking anything (the node's
+    executor keeps its own order of processing): ``check()`` asks, through a
+    wait set of its own with a zero timeout, whether any input subscription
+    has a message queued; when none has, every message that arrived has been
+    taken and processed (single-threaded executor), and ``pace`` records the
+    node's sim time. A node that never gets a moment with every queue empty
+    (short of CPU, a backlog on any input) holds the clock at the last one +
+    ``lead_s``. Before the subscriptions exist, and before the clock runs,
+    it allows anything (nothing can be queued)."""
+
+    def __init__(self, node, subscriptions, lead_s: float, clock_s):
+        """``subscriptions``: a callable returning the input subscriptions;
+        ``clock_s``: a callable giving the node's sim time (s)."""
+        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+        self._rclpy = _rclpy
+        self.node = node
+        self.subscriptions = subscriptions
+        self.clock_s = clock_s
+        self.pace = DrainPace(lead_s)
+        self.checks = 0
+        self.idle = 0
+        self._ws = None
+
+    def check(self) -> bool:
+        """Whether every input queue is empty now (then ``pace`` moves on)."""
+        subs = list(self.subscriptions())
+        clock_s = float(self.clock_s())
+        if not subs or not math.isfinite(clock_s):
+            return False
+        self.checks += 1
+        with contextlib.ExitStack() as stack:
+            for sub in subs:
+                stack.enter_context(sub.handle)
+            stack.enter_context(self.node.context.handle)
+            if self._ws is None or self._ws[0] != subs:      # one wait set while the inputs stay the same
+                self._ws = (subs, self._rclpy.WaitSet(len(subs), 0, 0, 0, 0, 0, self.node.context.handle))
+            ws = self._ws[1]
+            ws.clear_entities()
+            for sub in subs:
+                ws.add_subscription(sub.handle)
+            ws.wait(0)
+            ready = ws.get_ready_entities("subscription")
+        if ready:
+            return False
+        self.idle += 1
+        self.pace.drained(clock_s)
+        return True
+
+    def allowance_s(self) -> float:
+        """The clock limit for the inputs (inf before anything can be queued)."""
+        clock_s = float(self.clock_s())
+        if self.pace.clock_s is None and (not self.subscriptions() or not math.isfinite(clock_s)):
+            return math.inf
+        return self.pace.allowance_s(clock_s)

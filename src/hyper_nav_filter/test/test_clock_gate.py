@@ -15,7 +15,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
 
-from hyper_nav_filter.clock_gate import TOPIC, AllowanceGate, ClockAllowance, InputsReady
+from hyper_nav_filter.clock_gate import TOPIC, AllowanceGate, ClockAllowance, DrainPace, InputDrain, InputsIdle, InputsReady
 from hyper_nav_sim.testing import isolated_domain_id
 
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -110,3 +110,79 @@ def test_a_node_not_heard_yet_is_waited_for_longer_than_a_silent_one(two_partici
     time.sleep(0.6)
     assert gate.limit_s() == float("inf") and gate.dropped == {"fusion"} and gate.all_heard()
     assert AllowanceGate(node, ["x"], timeout_s=5.0, first_timeout_s=1.0).first_timeout_s == 5.0
+
+
+def test_drain_pace_follows_the_clock_of_the_last_pass_that_emptied_every_queue():
+    pace = DrainPace(lead_s=0.5)
+    assert pace.allowance_s(3.0) == 3.5                 # nothing received yet: nothing queued
+    pace.drained(10.0)
+    assert pace.allowance_s(12.0) == 10.5               # a backlog since 10 s holds the clock there
+    pace.drained(9.0)                                   # an older pass (clock read earlier) never moves it back
+    assert pace.allowance_s(12.0) == 10.5
+    pace.drained(12.0)
+    assert pace.allowance_s(12.0) == 12.5
+
+
+@pytest.mark.graph
+def test_input_drain_takes_every_queue_whatever_its_rate(two_participants):
+    """Issue 33: the executor takes one message per ready subscription per
+    wait, so a node short of CPU took its 8x stream at the rate of its slow
+    one and the fast queue (KEEP_LAST) overflowed while the slow one looked
+    current. One drain pass takes both queues whole; a pass cut short by
+    max_per_topic does not count as drained."""
+    (sub_node, pub_node), execs = two_participants
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    got = {"fast": [], "slow": []}
+    subs = [sub_node.create_subscription(Imu, f"test/{k}", lambda m, k=k: got[k].append(m.header.stamp.sec), qos)
+            for k in got]
+    pubs = {k: pub_node.create_publisher(Imu, f"test/{k}", qos) for k in got}
+    assert _spin_until(execs, lambda: all(p.get_subscription_count() == 1 for p in pubs.values())
+                       and all(s.get_publisher_count() == 1 for s in subs), 30.0)
+    time.sleep(0.5)                                     # discovery is one-sided: let the readers match too
+    drain = InputDrain(sub_node, lambda: subs, lead_s=0.5, max_per_topic=300)
+    for i in range(400):                                # 400 fast, 50 slow: the IMU and its load
+        m = Imu()
+        m.header.stamp.sec = i
+        pubs["fast"].publish(m)
+        if i % 8 == 0:
+            pubs["slow"].publish(m)
+    for p in pubs.values():
+        assert p.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+    t_before = drain.now_s()
+    assert drain.drain() == 350                         # 300 fast (cut short), all 50 slow
+    assert drain.cut_short == 1 and drain.pace.clock_s is None    # not drained: proves nothing
+    assert drain.drain() == 100 and drain.pace.clock_s >= t_before
+    assert got["fast"] == list(range(400)) and got["slow"] == list(range(0, 400, 8))   # all, in order
+    assert drain.drain() == 0 and drain.taken == 450
+    assert drain.allowance_s() == pytest.approx(drain.pace.clock_s + 0.5)
+
+
+@pytest.mark.graph
+def test_inputs_idle_sees_a_backlog_on_any_input_without_taking_it(two_participants):
+    """The fusion node's rule (it keeps its executor's order): the clock
+    stays at the last moment every input queue was empty, + lead."""
+    (sub_node, pub_node), execs = two_participants
+    got = {"fast": 0, "slow": 0}
+
+    def count(k):
+        got[k] += 1
+    subs = [sub_node.create_subscription(Imu, f"test/{k}", lambda m, k=k: count(k), RELIABLE) for k in got]
+    pub = pub_node.create_publisher(Imu, "test/fast", RELIABLE)
+    clock = [5.0]
+    idle = InputsIdle(sub_node, lambda: subs, lead_s=0.5, clock_s=lambda: clock[0])
+    assert idle.check() and idle.allowance_s() == 5.5          # nothing queued
+    assert _spin_until(execs, lambda: pub.get_subscription_count() == 1 and subs[0].get_publisher_count() == 1,
+                       30.0)
+    time.sleep(0.5)
+    pub.publish(Imu())
+    assert pub.wait_for_all_acked(rclpy.duration.Duration(seconds=10.0))
+    clock[0] = 7.0
+    deadline = time.monotonic() + 10.0
+    while idle.check() and time.monotonic() < deadline:        # until the message is in the queue
+        time.sleep(0.01)
+    assert not idle.check() and got["fast"] == 0               # a backlog: seen, not taken
+    assert idle.pace.clock_s <= 7.0                            # (the last pass that found it empty)
+    clock[0] = 9.0
+    assert idle.allowance_s() < 9.0                            # held while the queue is not empty
+    assert _spin_until(execs, lambda: got["fast"] == 1, 10.0)  # the executor takes it, in its own order
+    assert idle.check() and idle.allowance_s() == 9.5

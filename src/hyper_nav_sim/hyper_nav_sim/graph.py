@@ -271,6 +271,8 @@ class Graph:
         if not self.scenario["graph.clock_gate"]:
             return {}
         names = ["fusion"] if "fusion" in self.nodes else []
+        # the producers too: a starved or frozen sensor node holds the clock instead of bursting (issue 33)
+        names += [ros_name(n) for n in self._sensor_nodes()]
         names += [node.ros_name or node.name for node in self._aiding() if node.gates_clock]
         names += ["guidance"] if "guidance" in self.nodes else []      # its input matched first (issue 36)
         if self.record:
@@ -636,7 +638,9 @@ def _main(argv, state) -> int:
             try:
                 from .progress import ClockProgress             # sim time, real-time factor, ETA every 10 s
                 with ClockProgress(g.domain_id, float(g.scenario["duration_s"])):
-                    g.wait_until_done()
+                    # no wall-time limit: on a loaded machine the clock gate slows the flight down instead of
+                    # losing data (a frozen node holds it, a dead one is dropped after its timeout); SIGINT stops it
+                    g.wait_until_done(timeout_s=float("inf"))
             except Interrupted as exc:
                 interrupted = exc
                 g.stop_reason = f"{exc} after {time.monotonic() - t0:.1f} s"

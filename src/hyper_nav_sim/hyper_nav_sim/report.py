@@ -169,7 +169,9 @@ def _report(args) -> int:
                             f"them did not use them (filter.config.output_delay_s is below that lateness)")
     ep = out.details["epochs"]
     print(f"epochs: {ep['scored']} of {ep['expected']} expected solution epochs (with truth) published")
-    print(f"delivery: {len(rows)} topics checked: " + ", ".join(
+    lost = run_check.delivery_losses(rows)
+    print(("delivery: nothing lost, published == recorded == received == processed on every topic; "
+           if not lost else f"delivery: MESSAGES LOST on {', '.join(lost)}; ") + f"{len(rows)} topics checked: " + ", ".join(
         f"{t} {r.get('published', '-')}/{r['recorded']}" + "".join(
             f"/{v}" for k, v in sorted(r.items()) if k.startswith(("received_by", "processed_by")))
         for t, r in sorted(rows.items())) + "  (published/recorded[/processed/received at fusion])")

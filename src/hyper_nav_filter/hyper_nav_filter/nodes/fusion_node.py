@@ -20,6 +20,7 @@ import importlib
 import time
 
 import numpy as np
+import rclpy.clock
 from diagnostic_msgs.msg import DiagnosticArray
 from hyper_nav_msgs.msg import LateInput
 from hyper_nav_msgs.msg import NavState as NavStateMsg
@@ -35,7 +36,7 @@ from ..core.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
-from ..clock_gate import ClockAllowance, InputsReady
+from ..clock_gate import ClockAllowance, InputsIdle, InputsReady
 from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
@@ -134,6 +135,13 @@ class FusionNode(Node):
                       if inp.role == "main"]
         self.allowance = ClockAllowance(self, ready=InputsReady(self, lambda: self._input_subs, required=imu_topics))
         self._clock_s = -np.inf          # the newest /clock taken (in this executor, beside the inputs)
+        # every declared input, whatever its rate (issue 33): the clock stays clock.lead_s ahead of the last
+        # moment all input queues were empty (seen without taking: the executor keeps its order)
+        # (checked as the IMU is processed, at most every 5 ms of wall time: a check costs 50-150 us; and on a
+        # 20 ms wall timer, for a clock held with nothing arriving)
+        self._idle = InputsIdle(self, lambda: self._input_subs, p["clock.lead_s"], lambda: self._clock_s)
+        self._idle_wall = 0.0
+        self.create_timer(0.02, self._check_idle, clock=rclpy.clock.Clock(clock_type=rclpy.clock.ClockType.STEADY_TIME))
         self._set_allowance()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
@@ -223,13 +231,20 @@ class FusionNode(Node):
         the /clock taken + clock.lead_s once that is clock.imu_gap_s past the
         newest IMU (no IMU data to wait for)."""
         t_imu, lead = self.engine.t_latest_s, self.p["clock.lead_s"]
+        if (wall := time.monotonic()) - self._idle_wall >= 0.005:
+            self._idle_wall = wall
+            self._idle.check()
         # IMU samples held for their structure load (imu source's load_topic) are IMU data to wait
         # for: the clock stays at the engine's epoch + lead until they are in, so the load stream,
         # 8 messages per IMU sample through one subscription, catches up (a free clock let it fall
         # 1100 messages behind at real-time factor 2 on a loaded machine)
         held = sum(s.n_held_imu for s in self.router.sources)
         t = self._clock_s if self._clock_s > t_imu + self.p["clock.imu_gap_s"] and not held else t_imu
-        self.allowance.set(t + lead)
+        self.allowance.set(min(t + lead, self._idle.allowance_s()))
+
+    def _check_idle(self):
+        self._idle_wall = 0.0                 # _set_allowance checks now
+        self._set_allowance()
 
     def _publish_late(self, msg, report, outcome):
         """Report an input received behind the IMU (``nav/late_inputs``), so a

@@ -144,6 +144,19 @@ def delivery_rows(last_values: dict, recorded: dict, out: Outcome, dead: set | f
     return rows
 
 
+def delivery_losses(rows: dict) -> list[str]:
+    """The topics of ``delivery_rows`` where a count differs along the way
+    (published, recorded, received and processed by each consumer)."""
+    lost = []
+    for topic, row in sorted(rows.items()):
+        counts = [row[k] for k in row if k == "recorded" or k.startswith(("received_by_", "processed_by_"))]
+        if "published" in row:
+            counts.append(row["published"])
+        if len(set(counts)) > 1:
+            lost.append(topic)
+    return lost
+
+
 def rejected_inputs(fusion_values: dict, out: Outcome) -> dict:
     """Fusion's ``rejected_*`` counters (NaN, out of order, stale, gap,
     malformed): any rejected input message fails the run."""

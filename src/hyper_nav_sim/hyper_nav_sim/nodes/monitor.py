@@ -34,6 +34,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
+from hyper_nav_filter.clock_gate import InputDrain
 from hyper_nav_filter.ros_util import declare_params, publisher_qos, run_node
 
 from ..core.liveness import ERROR, OK, STALE, WARN, LivenessConfig, LivenessMonitor, StreamSpec
@@ -61,9 +62,15 @@ class MonitorNode(Node):
         self.core = LivenessMonitor(cfg, time.monotonic())
         self.beats = 0
         self.pub = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
-        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, publisher_qos(1000))
-        self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))
-        self.create_timer(p["diagnostics_period_s"], self.publish)
+        subs = [self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, publisher_qos(1000)),
+                self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))]
+        # verdicts only on what has arrived: the executor runs a due timer before the messages queued beside
+        # it, so a monitor that was frozen (SIGSTOP) or starved would call every node dead on resuming
+        self.inputs = InputDrain(self, lambda: subs, lead_s=0.0)
+        self.period_s = p["diagnostics_period_s"]
+        self._last_wall = None
+        self._quiet_until = 0.0          # no verdicts before (wall): the monitor itself did not run
+        self.create_timer(self.period_s, self.publish)
         self._last_level = {}
 
     def _on_clock(self, msg: Clock) -> None:
@@ -77,6 +84,19 @@ class MonitorNode(Node):
             self.core.on_status(st.hardware_id, {kv.key: kv.value for kv in st.values}, now)
 
     def publish(self) -> None:
+        now, last = time.monotonic(), self._last_wall
+        self._last_wall = now
+        if last is not None and now - last > 3.0 * self.period_s + 1.0:
+            # this monitor did not run (frozen, starved): the silence was its own, and what the others sent
+            # meanwhile may still be on its way in (its DDS threads stopped too): no verdicts for two periods
+            # (an overdue timer fires again at once)
+            self.get_logger().warning(f"monitor: not run for {now - last:.1f} s (wall); no verdicts for "
+                                      f"{2.0 * self.period_s:g} s")
+            self._quiet_until = now + 2.0 * self.period_s
+        if now < self._quiet_until:
+            self.inputs.drain()
+            return
+        self.inputs.drain()
         verdicts = self.core.evaluate(time.monotonic())
         self.beats += 1
         arr = DiagnosticArray()

@@ -23,6 +23,8 @@ SENSOR = (
     ParamSpec("wait_topics", STRS, (), "topics whose publishers wait for their own count (wait_counts) "
               "instead of min_subscribers"),
     ParamSpec("qos.depth", INT, 2000, "publisher history depth (graph.qos_depth)", lo=1),
+    ParamSpec("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the /clock "
+              "this node has worked through (/graph/allowance, hyper_nav_filter.clock_gate)", lo=0.0, lo_open=True),
     DIAG_PERIOD,
 )
 SENSOR_FROM_SCENARIO = {"qos.depth": "graph.qos_depth", "diagnostics_period_s": "graph.diagnostics_period_s"}
@@ -80,13 +82,9 @@ MONITOR = (
 
 RECORDER = (
     ParamSpec("output", STR, "", "bag directory (required)"),
-    ParamSpec("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the newest "
-              "message of clock.pace_topic written (/graph/allowance, hyper_nav_filter.clock_gate; "
-              "core/record_pace.py)", lo=0.0, lo_open=True),
-    ParamSpec("clock.pace_topic", STR, "/imu/data_raw", "the stream whose newest written header stamp the clock "
-              "allowance follows (the fastest input; its stamps follow the clock)"),
-    ParamSpec("clock.gap_wall_s", FLOAT, 1.0, "the pace stream silent this long (wall s): nothing queued, the "
-              "allowance follows the node clock", lo=0.0, lo_open=True),
+    ParamSpec("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the node "
+              "clock at which the recorder last found every recorded topic's queue empty (/graph/allowance, "
+              "hyper_nav_filter.clock_gate.InputDrain)", lo=0.0, lo_open=True),
     ParamSpec("topics", STRS, (), "topics to record (empty: every topic)"),
     ParamSpec("discovery_period_s", FLOAT, 0.2, "wall period of the topic discovery (s)", lo=0.0, lo_open=True),
     ParamSpec("drain_quiet_s", FLOAT, 0.5, "at shutdown, stop once nothing arrived for this long (s)", lo=0.0),

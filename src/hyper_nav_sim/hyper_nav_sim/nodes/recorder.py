@@ -19,6 +19,19 @@ Publishes the per-topic counts every second on /recorder/counts
 (diagnostic_msgs/DiagnosticArray, status "recorder", key=topic, value=count)
 and its status with a ``heartbeat`` on /diagnostics ("hyper_nav_sim: recorder",
 ``recorded <topic>``) every ``diagnostics_period_s`` (1.0 s).
+
+Nothing is lost silently: a topic with one publisher (never more) carries
+the writer's sequence number with each message (``publication_sequence_number``); a jump
+is a message that never reached the bag (the subscription's queue overflowed,
+a writer's history overwrote it). It is counted per topic (``lost <topic>``
+on /diagnostics and /recorder/counts, the status then ERROR, so the report
+fails) and printed when the bag is closed. (A loss before a topic's first
+recorded message or after its last leaves no gap to see: the report's check
+of every publisher's count against the bag covers those.)
+
+The clock allowance (``hyper_nav_filter.clock_gate.InputDrain``): every
+queue is taken whole in each pass, and the clock may run ``clock.lead_s``
+ahead of the node clock at which all of them were last found empty.
     drain_quiet_s (0.5), drain_max_s (10.0)   on SIGINT/SIGTERM, keep taking messages
                                  until none arrived for drain_quiet_s (at most drain_max_s)
 
@@ -42,10 +55,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from hyper_nav_filter.clock_gate import TOPIC as ALLOWANCE_TOPIC
-from hyper_nav_filter.clock_gate import ClockAllowance
+from hyper_nav_filter.clock_gate import ClockAllowance, InputDrain
 from hyper_nav_filter.ros_util import declare_params
 from hyper_nav_sim.core.bag import INFINITE, BagWriter, playback_qos, qos_profile, typestore
-from hyper_nav_sim.core.record_pace import RecordPace, header_stamp_s
 from hyper_nav_sim.nodes.params import RECORDER
 from hyper_nav_sim.nodes.status import NodeStatus
 
@@ -74,13 +86,16 @@ class Recorder(Node):
         self.depth = p["qos_depth"]
         self.bag = BagWriter(output)
         self.subs = {}  # topic -> subscription (None: not recordable)
+        self.lost: dict[str, int] = {}       # topic -> messages that never reached the bag (sequence gaps)
+        self._seq: dict[str, int] = {}       # topic -> the last publication sequence number taken
+        self._multi: set[str] = set()        # topics seen with several publishers (sequences interleave)
         self.counts_pub = self.create_publisher(DiagnosticArray, "/recorder/counts", 10)
-        # the clock waits for this recorder: the newest IMU stamp it wrote + clock.lead_s (its node clock is
-        # the newest /clock, not how far it has worked through its queues: core/record_pace.py)
-        self.pace_topic = p["clock.pace_topic"]
-        self.pace = RecordPace(p["clock.lead_s"], p["clock.gap_wall_s"])
-        self.allowance = ClockAllowance(self, source=lambda: self.pace.allowance_s(
-            self.get_clock().now().nanoseconds * 1e-9, time.monotonic()))
+        # the clock waits for this recorder: the node clock at which it last found every recorded topic's
+        # queue empty + clock.lead_s (clock_gate.InputDrain: any stream, whatever its rate; its node clock
+        # alone is the newest /clock, not how far it has worked through its queues)
+        self.drain = InputDrain(self, lambda: [s for s in self.subs.values() if s is not None],
+                                p["clock.lead_s"], max_per_topic=self.depth)
+        self.allowance = ClockAllowance(self, source=self.drain.allowance_s)
         self.status = NodeStatus(self, "hyper_nav_sim: recorder")
         # wall-clock timers: with use_sim_time the node clock stands still until /clock starts
         wall = Clock(clock_type=ClockType.STEADY_TIME)
@@ -123,32 +138,53 @@ class Recorder(Node):
             self.get_logger().info(f"recording {topic} [{msgtype}] ({adapted['reliability']}, "
                                    f"{adapted['durability']})")
 
-    def on_message(self, topic: str, msgtype: str, raw: bytes):
+    def on_message(self, topic: str, msgtype: str, raw: bytes, info: dict):
         self.bag.write(topic, msgtype, self.get_clock().now().nanoseconds, raw)
-        if topic == self.pace_topic:
-            stamp = header_stamp_s(raw)
-            if stamp is not None:
-                self.pace.written(stamp, time.monotonic())
+        seq = info.get("publication_sequence_number", 0) if info else 0
+        if seq <= 0:                           # (an rmw without sequence numbers: 0 or max uint64)
+            return
+        if topic in self._multi:
+            return
+        if self.subs[topic].get_publisher_count() > 1:   # a message carries no writer id: one writer only
+            self._multi.add(topic)
+            return
+        last = self._seq.get(topic)
+        self._seq[topic] = seq
+        if last is not None and seq > last + 1:
+            gap = seq - last - 1
+            if gap < 2**32:                    # not an rmw's "unsupported" value
+                self.lost[topic] = self.lost.get(topic, 0) + gap
+                self.get_logger().error(f"{topic}: {gap} message(s) lost before the bag (sequence "
+                                        f"{last} -> {seq}); {self.lost[topic]} so far")
 
     def publish_counts(self):
         status = DiagnosticStatus(level=DiagnosticStatus.OK, name="recorder")
         status.message = f"{sum(self.counts.values())} messages"
         status.values = [KeyValue(key=t, value=str(n)) for t, n in sorted(self.counts.items())]
+        status.values += [KeyValue(key=f"lost {t}", value=str(n)) for t, n in sorted(self.lost.items())]
+        if self.lost:
+            status.level = DiagnosticStatus.ERROR
+            status.message += f", {sum(self.lost.values())} lost"
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.counts_pub.publish(msg)
         self.bag.flush()
 
     def publish_status(self, finished: bool = False):
-        self.status.publish("ok", f"{sum(self.counts.values())} messages",
-                            {f"recorded {t.lstrip('/')}": n for t, n in self.counts.items()}, finished=finished)
+        values = {f"recorded {t.lstrip('/')}": n for t, n in self.counts.items()}
+        values.update({f"lost {t.lstrip('/')}": n for t, n in self.lost.items()})
+        values.update(drain_passes=self.drain.passes, drain_cut_short=self.drain.cut_short)
+        lost = sum(self.lost.values())
+        self.status.publish("error" if lost else "ok", f"{sum(self.counts.values())} messages" +
+                            (f", {lost} LOST before the bag ({', '.join(sorted(self.lost))})" if lost else ""),
+                            values, finished=finished)
 
     def close(self):
         """Finish the bag (metadata.yaml) and print the per-topic counts."""
         self.bag.close()
         print(f"recorder: closed {self.bag.path}", flush=True)
         for topic, n in sorted(self.counts.items()):
-            print(f"  {topic}: {n}", flush=True)
+            print(f"  {topic}: {n}" + (f" ({self.lost[topic]} LOST)" if self.lost.get(topic) else ""), flush=True)
 
 
 def offered_profile(qos) -> dict:
@@ -180,11 +216,13 @@ def main(args=None):
         executor.add_node(node)
         while not stop.is_set():
             executor.spin_once(timeout_sec=0.1)
+            node.drain.drain()              # the rest of every queue (one message per topic per wait otherwise)
         quiet_s = node.p["drain_quiet_s"]
         deadline = time.monotonic() + node.p["drain_max_s"]
         last, quiet_since = -1, time.monotonic()
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
+            node.drain.drain()
             total = sum(node.counts.values())
             if total != last:
                 last, quiet_since = total, time.monotonic()

@@ -13,13 +13,23 @@ from ``graph.diagnostics_period_s``) carries ``heartbeat``, ``scheduled
 <topic>`` (the node's whole stream), ``published <topic>``, ``last <topic>``
 (stamp of the last message) and ``sim_time_s``, so the liveness monitor and
 the report see a stream that stopped early, and when.
+
+On ``/graph/allowance`` (``hyper_nav_filter.clock_gate``) it allows the
+``/clock`` it has worked through + ``clock.lead_s`` (inf once its whole
+stream is out): a sensor node starved of CPU or frozen holds the clock,
+instead of releasing seconds of data in one burst when it resumes, deeper
+than its consumers' queues (issue 33). Waited for when the time source lists
+it (``run_graph`` does, with ``graph.clock_gate``).
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
+from hyper_nav_filter.clock_gate import ClockAllowance
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
 from hyper_nav_filter.ros_util import declare_params, publisher_qos
 
@@ -50,6 +60,10 @@ class ClockDrivenSensor(Node):
         self._next = 0
         self._done_reported = False
         self._clock_sub = None
+        self.lead_s = p["clock.lead_s"]
+        # no allowance before the /clock subscription exists (clock_gate: the time source holds the clock
+        # until it has heard this node)
+        self.allowance = ClockAllowance(self, source=self._allowance, ready=lambda: self._clock_sub is not None)
         self._wait_timer = self.create_timer(0.05, self._start_when_ready)
         self.create_timer(p["diagnostics_period_s"], self.publish_diagnostics)
 
@@ -78,6 +92,11 @@ class ClockDrivenSensor(Node):
         self._wait_timer.cancel()
         self._clock_sub = self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))
 
+    def _allowance(self) -> float:
+        if self._queue and self._next == len(self._queue):
+            return math.inf                     # the whole stream is out: nothing to hold the clock for
+        return (self.sim_time_s or 0.0) + self.lead_s
+
     def _on_clock(self, msg: Clock):
         now = stamp_to_s(msg.clock)
         self.sim_time_s = now
@@ -88,6 +107,7 @@ class ClockDrivenSensor(Node):
             self.published[name] = self.published.get(name, 0) + 1
             self.last_stamp[name] = t
             self._next += 1
+        self.allowance.set(self._allowance())
         if self._next == len(self._queue) and self._queue and not self._done_reported:
             self._done_reported = True          # the whole stream is out: say so at once
             self.publish_diagnostics()
