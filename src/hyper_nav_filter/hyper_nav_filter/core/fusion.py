@@ -110,6 +110,9 @@ class Solution:
 
     def _rates(self):
         kf, snap, imu = self._src
+        if imu is None:                           # the time line's first sample (no interval flown yet)
+            self._w, self._f = np.zeros(3), np.zeros(3)
+            return
         dth, dv = kf.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, snap.values)
         self._w, self._f = dth / imu.dt_s, dv / imu.dt_s
 
@@ -271,6 +274,18 @@ class FusionEngine:
 
     def _accept_imu(self, t_s, dth, dv, rates=None, load=None) -> None:
         dt = t_s - self.t_latest_s
+        if self._last_dt is None and not self._times and not self._ahead and dt > self.cfg.imu_gap_s:
+            # the first sample, far after the initial state's epoch (a live vehicle whose init.t_s was left at
+            # 0): it starts the time line; the initial state is taken at its stamp, its interval not flown
+            self.kf.t_s = self._t0_out = t_s
+            self._base = self.kf.snapshot()
+            self._last_dt = math.inf
+            self.counters["imu_time_origin"] += 1
+            self.counters["imu_accepted"] += 1
+            self._predict_current()
+            return
+        if self._last_dt == math.inf:
+            self._last_dt = None
         if dt > self.cfg.imu_gap_s and self._last_dt is not None:
             # the new sample covers its own (nominal) interval: rates given, or increments / nominal interval
             w1, f1 = rates if rates is not None else (dth / self._last_dt, dv / self._last_dt)
