@@ -104,6 +104,50 @@ def one(sc, cfg, gnss_delay_s, duration_s, outage, t_from):
     return out
 
 
+def micro(imu_hz: float, delay_s: float) -> dict:
+    """In-process cost of the predictor step over a 20 s flight (the engine
+    fed as in ``fly_current``): median and p90 of the calls with no
+    correction and, for ``repropagate``, of the calls that re-run the horizon
+    (medians: robust to a busy machine's preemptions)."""
+    from hyper_nav_filter.core.fusion import FusionEngine
+    from hyper_nav_sim.core import simulate
+    from hyper_nav_sim.offline_fly import gnss_measurements
+    sc = scenario(0, 20.0, imu_hz)
+    traj = sc.trajectory()
+    imu = simulate.imu_stream(sc, traj)
+    meas = gnss_measurements(sc, traj)
+    out = {}
+    for rule in ("repropagate", "complementary"):
+        cfg = FilterConfig.from_dict({**sc.filter_config().as_dict(), "fusion_delay_s": delay_s,
+                                      "output_predictor": rule})
+        eng = FusionEngine(cfg, sc.filter_initial_state())
+        pr = eng.predictor
+        step, plain, re = pr.step, [], []
+
+        def timed(*a):
+            n0 = pr.reanchors
+            t0 = time.perf_counter()
+            r = step(*a)
+            dt = time.perf_counter() - t0
+            (re if pr.reanchors != n0 else plain).append(dt)
+            return r
+        pr.step = timed
+        j = 0
+        for k in range(len(imu.t_s)):
+            t = float(imu.t_s[k])
+            while j < len(meas) and meas[j].t_s + delay_s <= t - 1e-9:
+                eng.add_measurement(meas[j])
+                j += 1
+            eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
+        plain, re = np.array(plain[len(plain) // 10:]) * 1e6, np.array(re[1:]) * 1e6
+        out[rule] = {"step_median_us": float(np.median(plain)), "step_p90_us": float(np.percentile(plain, 90)),
+                     "n_steps": len(plain)}
+        if len(re):
+            out[rule].update({"repropagate_median_us": float(np.median(re)), "n_repropagations": len(re),
+                              "horizon_samples": int(round(delay_s * imu_hz))})
+    return out
+
+
 VARIANTS = {
     "no fusion delay (late fixes re-processed)": {"fusion_delay_s": 0.0},
     "repropagate": {"output_predictor": "repropagate"},
@@ -120,7 +164,12 @@ def main(argv=None):
     ap.add_argument("--outage", type=float, nargs=2, default=None, metavar=("T0", "T1"))
     ap.add_argument("--from", dest="t_from", type=float, default=10.0, help="score from this time on (s)")
     ap.add_argument("--out", default="results/output_predictor.json")
+    ap.add_argument("--micro", action="store_true", help="only the in-process per-sample cost of the predictor")
     a = ap.parse_args(argv)
+    if a.micro:
+        for hz in (200.0, 1000.0):
+            print(f"IMU {hz:g} Hz, horizon {a.gnss_delay:g} s: {micro(hz, a.gnss_delay)}")
+        return
     results = {}
     for name, over in VARIANTS.items():
         runs = []

@@ -43,7 +43,7 @@ CORE_PARAMS = (
     nonneg("fusion_delay_s", FLOAT, 0.0, "fusion time horizon (s): IMU samples are fused this far behind the newest "
            "one, so measurements delivered within it are never late (the largest declared source delay, "
            "filter.sources.<id>.delay_s, raises it); the current-time state is predicted over it"),
-    ParamSpec("output_predictor", STR, "repropagate", "how the current-time state follows a correction of the "
+    ParamSpec("output_predictor", STR, "complementary", "how the current-time state follows a correction of the "
               "fusion horizon (core.output_predictor): repropagate (re-run the strapdown from the corrected state) "
               "or complementary (PX4 EKF2: fed back with time constants output_tau_*_s)",
               choices=("repropagate", "complementary")),

@@ -24,8 +24,21 @@ follows by one of two rules (``output_predictor``):
   dt / tau (``output_tau_att_s``, ``output_tau_vel_s``, ``output_tau_pos_s``).
   Smooth (no step), at the price of following a correction within ~tau.
 
-Without any correction both equal a plain strapdown from the anchor (tested
-to 1e-9). The covariance is carried over the lead on request
+Without any correction both equal a plain strapdown from the anchor (tested:
+velocity and attitude to 1e-9, position to 1e-7 m, the lat/lon rounding).
+
+The default is ``complementary``, measured (``benchmarks/output_predictor.py``,
+default scenario, 3 seeds x 120 s, IMU 200 Hz, GNSS fixes 0.2 s late = the
+horizon; a shared, busy 2-core machine, so medians): per IMU sample it costs
+8.5-8.9 us in process at 200 Hz and 1 kHz, always (``repropagate``: 4.3 us
+without a correction, but 151 us at 200 Hz and 1.2 ms at 1 kHz at every
+correction, the whole horizon again); its sample-to-sample error steps are
+p99 2.3 mm / 0.28 mm/s (``repropagate``: 39 mm / 3.2 mm/s, the filter's own
+corrections) and, at the end of a 60 s GNSS outage, max 6 cm (``repropagate``:
+2.7 m in one sample); position RMS 0.419 m against 0.417 m (``repropagate``)
+and 0.413 m for the delayed stream, NEES equal. A control loop gets a smooth
+state at a fixed cost; ``repropagate`` stays for who wants the corrected
+filter state carried forward exactly. The covariance is carried over the lead on request
 (``ErrorStateKF.lead_covariance``). No rclpy here.
 """
 from __future__ import annotations
@@ -125,13 +138,8 @@ class OutputPredictor:
         if not h or abs(h[0][0] - anchor.t_s) > _EPS_S:
             return
         _, x_then, s_then = h.popleft()
-        frame = self.kf.frame
-        dx = frame.small_difference(x_then, anchor.x_nav) - (self._S - s_then)
-        c = np.empty(9)
-        for i, tau in enumerate(self.tau):
-            c[3 * i:3 * i + 3] = dx[3 * i:3 * i + 3] * min(1.0, dt_s / tau)
-        self._x = frame.fast_inject(self._x, c)
-        self._S = self._S + c
+        gains = [min(1.0, dt_s / tau) for tau in self.tau]
+        self._x, self._S = self.kf.frame.feed_back(self._x, x_then, anchor.x_nav, self._S, s_then, gains)
 
     def covariance(self, pred: Predicted) -> np.ndarray:
         """The predicted state's covariance (the filter's error convention):

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .enu import PI, mechanize, radii
+from .enu import PI, inject, mechanize, radii
 from .predict import imu_terms
 
 
@@ -47,3 +47,16 @@ def enu_difference(x_est, x_true):
     out[7] = (x_est[0] - lat) * (r_m + alt)
     out[8] = x_est[2] - alt
     return out
+
+
+@njit(cache=True)
+def enu_feed_back(x, x_then, x_anchor, S, S_then, g_att, g_vel, g_pos):
+    """The complementary output predictor's correction in one call
+    (``OutputPredictor._feed_back``): c = gains * (difference(x_then,
+    x_anchor) - (S - S_then)); returns (x with c taken off, S + c)."""
+    dx = enu_difference(x_then, x_anchor)
+    c = np.empty(9)
+    for i in range(9):
+        g = g_att if i < 3 else (g_vel if i < 6 else g_pos)
+        c[i] = g * (dx[i] - (S[i] - S_then[i]))
+    return inject(x, c), S + c

@@ -146,6 +146,10 @@ class EnuFrame:
                                         x_true[X_ALT])
         return np.concatenate([phi, x_est[X_VEL] - x_true[X_VEL], dp])
 
+    def feed_back(self, x, x_then, x_anchor, S, S_then, gains):
+        """The complementary output predictor's correction (core.fast.nominal.enu_feed_back)."""
+        return fast_nominal.enu_feed_back(x, x_then, x_anchor, S, S_then, *gains)
+
     def small_difference(self, x_est, x_true) -> np.ndarray:
         """``difference`` for small angles (the skew part of C_true C_est^T;
         compiled, core.fast.nominal): the output predictor's feedback."""

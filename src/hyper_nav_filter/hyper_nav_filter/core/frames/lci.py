@@ -165,6 +165,13 @@ class LciFrame:
         phi = attitude_error_n_rad(x_est[X_C].reshape(3, 3), x_true[X_C].reshape(3, 3))
         return np.concatenate([phi, x_est[X_V] - x_true[X_V], x_est[X_R] - x_true[X_R]])
 
+    def feed_back(self, x, x_then, x_anchor, S, S_then, gains):
+        """The complementary output predictor's correction: gains * (the
+        difference at the anchor's stamp less what was fed back since) taken
+        off x; (x, S + c)."""
+        c = np.repeat(gains, 3) * (self.small_difference(x_then, x_anchor) - (S - S_then))
+        return self.fast_inject(x, c), S + c
+
     def small_difference(self, x_est, x_true) -> np.ndarray:
         """``difference`` (the output predictor's feedback; no compiled form here)."""
         return self.difference(x_est, x_true)
