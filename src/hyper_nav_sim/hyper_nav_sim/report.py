@@ -216,7 +216,7 @@ def _report(args) -> int:
         f"{t} {r.get('published', '-')}/{r['recorded']}" + "".join(
             f"/{v}" for k, v in sorted(r.items()) if k.startswith(("received_by", "processed_by")))
         for t, r in sorted(rows.items())) + "  (published/recorded[/processed/received at fusion])")
-    cur = current_time_summary(run["current"], truth, sc["report.skip_s"])
+    cur = current_time_summary(run["current"], truth, summary["skip_s"] if summary else sc["report.skip_s"])
     if cur is not None:
         out.details["current_time"] = cur
         delayed = (summary or {}).get("pos_enu_m", {}).get("rms_3d")

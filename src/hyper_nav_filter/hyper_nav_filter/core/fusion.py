@@ -203,6 +203,7 @@ class FusionEngine:
                                          cfg.output_tau_vel_s, cfg.output_tau_pos_s)
         self.fusion_delay_s = float(cfg.fusion_delay_s)
         self.current: CurrentSolution | None = None   # the state at the newest IMU sample
+        self.current_log: list | None = None      # a list: every current-time state is kept (offline replay)
 
     @property
     def t_latest_s(self) -> float:
@@ -338,6 +339,8 @@ class FusionEngine:
         self._new = []
         mode, kinds = self._mode(ep) if ep is not None else (MODE_INITIALIZING, ())
         self.current = CurrentSolution.of_prediction(self.kf, self.predictor, pred, mode, kinds)
+        if self.current_log is not None:
+            self.current_log.append(self.current)
 
     def add_measurement(self, meas) -> tuple[bool, str]:
         """Queue an aiding measurement (``meas.t_s`` is its epoch). Late ones
