@@ -11,8 +11,9 @@ samples or model updates. Two output streams (STYLE pattern 19):
   sample's stamp (``FusionEngine.current``: predicted over the fusion
   horizon): ``nav/state`` (hyper_nav_msgs/NavState with covariance),
   ``nav/odom`` (nav_msgs/Odometry), ``nav/fix`` (NavSatFix) and REP-105
-  ``map -> base_link`` on ``/tf``; published before the filter's own work
-  on the sample is read out, one IMU sample of latency;
+  ``map -> base_link`` on ``/tf``, stamped with the IMU message's own
+  stamp; published in the IMU message's callback, as soon as the engine has
+  taken the sample and before the released solutions;
 * delayed, for the record, replay and scoring: the released solutions,
   ``output_delay_s`` behind and independent of arrival order, on
   ``nav/delayed/state``, ``nav/delayed/odom``, ``nav/delayed/fix`` (aiding
