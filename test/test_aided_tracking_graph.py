@@ -42,7 +42,7 @@ def _bad_states(stop):
     ctx = Context()
     rclpy.init(context=ctx)
     node = rclpy.create_node("bad_aiding_publisher", context=ctx)
-    pub = node.create_publisher(NavState, "nav/state", 10)
+    pub = node.create_publisher(NavState, "nav/delayed/state", 10)
     try:
         deadline = time.monotonic() + 20.0
         while pub.get_subscription_count() < 2 and time.monotonic() < deadline and not stop.is_set():
@@ -83,8 +83,10 @@ def test_receiver_aided_by_the_fusion_state_over_dds(tmp_path):
     delivery = delivery_check(run)
     for topic in ("gnss/raw", "gnss/fix"):
         assert delivery[topic]["published"] == delivery[topic]["recorded"] > 0, (topic, delivery[topic])
-    # nav/state: the fusion node's plus the test's 4 bad ones (9-state layout, left out of the scoring)
-    assert delivery["nav/state"]["recorded"] == delivery["nav/state"]["published"] + 4 > 4, delivery["nav/state"]
+    # nav/delayed/state (gnss_node's aiding input): the fusion node's plus the test's 4 bad ones (9-state layout,
+    # left out of the scoring)
+    assert delivery["nav/delayed/state"]["recorded"] == delivery["nav/delayed/state"]["published"] + 4 > 4, \
+        delivery["nav/delayed/state"]
     nav = [m for m in run["nav"] if m.state_dim != 9]
     gnss = run["diagnostics"]["hyper_nav_sim: gnss"]
     aid = {k[len("aiding "):]: float(v) for k, v in gnss.items() if k.startswith("aiding ")}

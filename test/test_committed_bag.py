@@ -62,7 +62,8 @@ def test_replay_filter_smooth_reports_the_smoother_next_to_the_filter(capsys):
 
 @pytest.mark.graph
 def test_committed_bag_replays_into_live_fusion_node():
-    outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix, "nav/late_inputs": LateInput}
+    outputs = {"nav/delayed/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix,
+               "nav/late_inputs": LateInput}
     # held by the fusion node's allowance: it starts once the node's subscriptions have matched the player
     # (clock_gate.InputsReady; without it a loaded run can lose the first messages, issue 22)
     player = {"bag": str(BAG), "rate": 4.0, "topics": INPUTS, "wait_for_subscribers": 1,
@@ -73,8 +74,9 @@ def test_committed_bag_replays_into_live_fusion_node():
             g.node_params["player"] = player
             g._spawn("player")
             assert g.procs["player"].wait(timeout=60) == 0, g.log("player")
-            assert c.wait_for(lambda m: len(m["nav/state"]) >= 950, 20.0), (len(c.messages["nav/state"]), g.log("fusion"))
-            live = list(c.messages["nav/state"])
+            assert c.wait_for(lambda m: len(m["nav/delayed/state"]) >= 950, 20.0), \
+                (len(c.messages["nav/delayed/state"]), g.log("fusion"))
+            live = list(c.messages["nav/delayed/state"])
             late = list(c.messages["nav/late_inputs"])
     recs, _ = _records(BAG)
     sols, eng = _offline(recs, late)

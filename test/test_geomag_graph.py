@@ -71,7 +71,7 @@ def test_geomag_fixes_reach_the_fusion_filter_over_dds(tmp_path):
     recs = list(read_bag(bag))
     mags = [deserialize(r.raw, r.msgtype) for r in recs if r.topic == "/imu/mag"]
     navs = {round(stamp_to_s(m.header.stamp), 6): m for m in
-            (deserialize(r.raw, r.msgtype) for r in recs if r.topic == "/nav/state")}
+            (deserialize(r.raw, r.msgtype) for r in recs if r.topic == "/nav/delayed/state")}
     live = [deserialize(r.raw, r.msgtype) for r in recs if r.topic == "/geomag/fix"]
     cfg = GeomagConfig.from_dict({k: v for k, v in scenario.data["geomag"].items() if k != "reproduction"})
     from hyper_nav_aiding.core.geomag_map import cached_map_path, load_map

@@ -40,7 +40,7 @@ class ArrivalLog:
     def __init__(self, collector):
         self.state, self.clock = [], []
         self._lock = threading.Lock()
-        collector.node.create_subscription(NavState, "nav/state", self._on_state, 2000)
+        collector.node.create_subscription(NavState, "nav/delayed/state", self._on_state, 2000)
         collector.node.create_subscription(Clock, "/clock", self._on_clock, 2000)
 
     def _on_state(self, msg):

@@ -78,18 +78,20 @@ def test_foxglove_live_view_served_the_run(recorded_run):
     for t in ("/map/truth", "/map/fused", "/map/gnss", "/tf"):
         assert fox.count(t) > 50, (t, fox.count(t))
     assert fox.count("/vehicle") >= 1
-    recs = fox.messages["/errors"]
-    assert len(recs) > 1000                   # 1500 solutions; the client joins while the graph starts
-    err = errors(states_from_msgs(recorded_run["nav"]), states_from_msgs(recorded_run["truth"]))
-    by_t = {round(t * 1e6): i for i, t in enumerate(err["t"])}
-    inside = []
-    for r in recs:
-        i = by_t[round(r["t_s"] * 1e6)]
-        assert r["pos_err_enu_m"] == pytest.approx(err["pos_enu_m"][i], abs=1e-6)
-        assert r["att_err_enu_deg"] == pytest.approx(err["att_enu_deg"][i], abs=1e-9)
-        if r["t_s"] >= 5.0:
-            inside.append(np.all(np.abs(r["pos_err_enu_m"]) <= 3 * np.asarray(r["pos_sigma_enu_m"])))
-    assert np.mean(inside) > 0.95
+    # /errors: the current-time stream (nav/state); /errors/delayed: the record (nav/delayed/state)
+    for channel, stream in (("/errors", "current"), ("/errors/delayed", "nav")):
+        recs = fox.messages[channel]
+        assert len(recs) > 1000                   # 1500 solutions; the client joins while the graph starts
+        err = errors(states_from_msgs(recorded_run[stream]), states_from_msgs(recorded_run["truth"]))
+        by_t = {round(t * 1e6): i for i, t in enumerate(err["t"])}
+        inside = []
+        for r in recs:
+            i = by_t[round(r["t_s"] * 1e6)]
+            assert r["pos_err_enu_m"] == pytest.approx(err["pos_enu_m"][i], abs=1e-6)
+            assert r["att_err_enu_deg"] == pytest.approx(err["att_enu_deg"][i], abs=1e-9)
+            if r["t_s"] >= 5.0:
+                inside.append(np.all(np.abs(r["pos_err_enu_m"]) <= 3 * np.asarray(r["pos_sigma_enu_m"])))
+        assert np.mean(inside) > 0.95
 
 
 def test_run_plots_show_errors_within_the_filters_bounds(recorded_run, tmp_path):

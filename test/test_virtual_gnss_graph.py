@@ -32,7 +32,7 @@ def test_virtual_gnss_node_over_dds_matches_its_offline_core(tmp_path):
         sc = g.scenario
         log = g.log("virtual_gnss")
     assert "virtual_gnss" in g.nodes
-    assert "subscribed to /gnss/ephemeris, /gnss/raw, /imu/data_raw, /nav/state" in log, log[-2000:]
+    assert "subscribed to /gnss/ephemeris, /gnss/raw, /imu/data_raw, /nav/delayed/state" in log, log[-2000:]
     run = load_run(bag)
     delivery = delivery_check(run)
     for topic, d in delivery.items():

@@ -9,6 +9,8 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/params", ["params/loosely_coupled.yaml", "params/tightly_coupled.yaml",
+                                                "params/loosely_coupled_aiding.yaml"]),
     ],
     package_data={package_name: ["core/tracking/trained/*.npz", "core/tracking/trained/*.json"]},
     install_requires=["setuptools"],

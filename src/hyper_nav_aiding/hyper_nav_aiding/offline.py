@@ -68,7 +68,7 @@ def run_virtual_offline(records, params: VirtualGnssNodeParams) -> tuple[list, V
             out += inp.on_raw(msg)[0]
         elif topic == "imu/data_raw":
             out += inp.on_imu(msg)
-        elif topic == "nav/state" and fused:
+        elif topic in ("nav/delayed/state", "/nav/delayed/state") and fused:
             out += inp.on_state(msg)
         elif topic == "gnss/fix" and not fused:
             inp.on_fix(msg)

@@ -39,15 +39,18 @@ def replay_records(records, sources: dict | None = None, late_inputs=None, order
 
 def run_offline(records, cfg: FilterConfig, initial: NavState, sources: dict | None = None,
                 final: bool = False, keep_history: bool = False, order: str = "live",
-                late_inputs=None) -> tuple[list[Solution], FusionEngine]:
+                late_inputs=None, keep_current: bool = False) -> tuple[list[Solution], FusionEngine]:
     """Solutions released by the engine (all of them with ``final``) and the
     engine; ``sources`` is the table of ``filter.sources`` (default: IMU and
     loosely coupled GNSS); ``keep_history`` keeps every epoch for ``smooth``;
     ``order`` and ``late_inputs`` as ``replay_records``. The engine's
-    ``replay`` attribute holds the ReplayOrder (None with ``order="given"``)."""
+    ``replay`` attribute holds the ReplayOrder (None with ``order="given"``);
+    with ``keep_current`` its ``current_log`` holds the current-time state of
+    every IMU sample (the live node's ``nav/state``, in its order)."""
     feed, ro = replay_records(records, sources, late_inputs, order)
     eng = FusionEngine(cfg, initial, keep_history=keep_history)
     eng.replay = ro
+    eng.current_log = [] if keep_current else None
     router = SourceRouter(eng, sources or DEFAULT_TABLE)
     out: list[Solution] = []
     for topic, msg in feed:

@@ -123,7 +123,7 @@ ORDERS = {"stamp": stamp_order, "log": log_order}
 
 def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: dict | None = None,
                        final: bool = False, keep_history: bool = False, order: str = "stamp",
-                       progress=None) -> tuple[list[Solution], FusionEngine, SourceRouter]:
+                       progress=None, keep_current: bool = False) -> tuple[list[Solution], FusionEngine, SourceRouter]:
     """``offline.run_offline`` over topic arrays: (solutions, engine, router).
     ``order``: ``"stamp"`` (default: ``run_offline``'s order for a recording
     without late-input reports, ``replay_order.live_order``) or ``"log"``
@@ -132,6 +132,7 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
     not placed here: a recording that has them goes through ``run_offline``."""
     eng = FusionEngine(cfg, initial, keep_history=keep_history)
     eng.replay = None                          # as run_offline's: no ReplayOrder (no late inputs placed)
+    eng.current_log = [] if keep_current else None     # (as run_offline's keep_current)
     router = SourceRouter(eng, sources or DEFAULT_TABLE)
     topics = [t for t in topics if t.topic.lstrip("/") in router.routes and len(t)]
     if not topics:

@@ -10,8 +10,9 @@ the live node never saw (issue 22: a fix that reached the recorder more than
 the replay, and nowhere in the live run).
 
 The fusion engine's solutions depend only on its inputs' stamps, except for
-the messages it receives *behind* the IMU (stamp older than the newest IMU
-sample when they arrive): the fusion node reports each of those on
+the messages it receives *behind* the IMU (stamp not newer than the newest
+IMU sample when they arrive; the current-time stream, one state per IMU
+sample, depends on exactly these): the fusion node reports each of those on
 ``nav/late_inputs`` (``hyper_nav_msgs/LateInput``: topic, stamp, occurrence,
 the IMU stamp it followed, what the engine did with it). The replay order is
 
@@ -72,13 +73,14 @@ class LateInputTracker:
     def arrival(self, topic: str, t_ns: int | None, drives_time: bool, last_released_s: float):
         """(report or None, applied after release): the report (outcome
         still to be set) when the message comes behind the IMU: an aiding
-        message stamped before the newest IMU sample, an IMU sample not after
-        it."""
+        message stamped at or before the newest IMU sample (at it: the
+        current-time state of that sample did not see it, though the released
+        solutions do not depend on it), an IMU sample not after it."""
         name = topic.lstrip("/")
         last, n = self._occurrence.get(name, (None, 0))
         n = n + 1 if t_ns == last else 0        # a publisher sends in order: equal stamps are adjacent
         self._occurrence[name] = (t_ns, n)
-        if t_ns is None or self.imu_ns is None or not (t_ns <= self.imu_ns if drives_time else t_ns < self.imu_ns):
+        if t_ns is None or self.imu_ns is None or not t_ns <= self.imu_ns:
             return None, False
         return LateInput(name, t_ns, n, self.imu_ns, ""), t_ns * 1e-9 <= last_released_s + 1e-9
 

@@ -24,7 +24,9 @@ import time
 
 from .core import live_view
 
-COLORS = {"truth": (0.0, 0.0, 0.0), "fused": (0.12, 0.47, 0.71), "gnss": (1.0, 0.5, 0.05)}
+# fused: the current-time stream (nav/state); delayed: the released record (nav/delayed/state)
+COLORS = {"truth": (0.0, 0.0, 0.0), "fused": (0.12, 0.47, 0.71), "delayed": (0.17, 0.63, 0.17),
+          "gnss": (1.0, 0.5, 0.05)}
 
 
 class FoxgloveSink:
@@ -41,10 +43,12 @@ class FoxgloveSink:
         self.vehicle = SceneUpdateChannel("/vehicle", context=self.ctx)
         self.errors = foxglove.Channel("/errors", schema=live_view.ERRORS_SCHEMA, context=self.ctx)
         self.tracker = live_view.ErrorTracker()
+        self.errors_delayed = foxglove.Channel("/errors/delayed", schema=live_view.ERRORS_SCHEMA, context=self.ctx)
+        self.tracker_delayed = live_view.ErrorTracker()
         self.min_dt_ns = int(1e9 / map_rate_hz) if map_rate_hz > 0 else 0
         self._last_map = {k: -10**19 for k in COLORS}
         self._vehicle_sent = False
-        self.counts = {"map": 0, "tf": 0, "errors": 0}
+        self.counts = {"map": 0, "tf": 0, "errors": 0, "errors_delayed": 0}
 
     @property
     def port(self) -> int | None:
@@ -53,16 +57,22 @@ class FoxgloveSink:
     # ---- inputs -------------------------------------------------------------------
     def on_truth(self, m) -> None:
         self._log_errors(self.tracker.on_truth(m))
+        self._log_errors(self.tracker_delayed.on_truth(m), self.errors_delayed)
         self._location("truth", live_view.navstate_point(m))
 
     def on_nav(self, m) -> None:
         self._location("fused", live_view.navstate_point(m))
         self._log_errors(self.tracker.on_nav(m))
 
-    def _log_errors(self, records) -> None:
+    def on_nav_delayed(self, m) -> None:
+        """The delayed record (nav/delayed/state): its own map track and errors (/errors/delayed)."""
+        self._location("delayed", live_view.navstate_point(m))
+        self._log_errors(self.tracker_delayed.on_nav(m), self.errors_delayed)
+
+    def _log_errors(self, records, channel=None) -> None:
         for t_ns, rec in records:
-            self.errors.log(rec, log_time=t_ns)
-            self.counts["errors"] += 1
+            (channel or self.errors).log(rec, log_time=t_ns)
+            self.counts["errors" if channel is None else "errors_delayed"] += 1
 
     def on_gnss(self, m) -> None:
         self._location("gnss", live_view.navsatfix_point(m))
@@ -116,7 +126,8 @@ def _ts(Timestamp, t_ns: int):
     return Timestamp(sec=int(t_ns // 1_000_000_000), nsec=int(t_ns % 1_000_000_000))
 
 
-HANDLERS = {"truth/state": "on_truth", "nav/state": "on_nav", "gnss/fix": "on_gnss", "tf": "on_tf",
+HANDLERS = {"truth/state": "on_truth", "nav/state": "on_nav", "nav/delayed/state": "on_nav_delayed",
+            "gnss/fix": "on_gnss", "tf": "on_tf",
             "tf_static": "on_tf"}
 
 

@@ -20,7 +20,14 @@ interpolated to the solution epochs, ``core.importer.score``), else against
 ``truth/state`` in the bag. A scenario's replay is checked as its live run
 is (every expected solution epoch scored, every IMU sample of the bag
 accepted, no input rejected, no IMU gap bridged, the scenario's accuracy
-limits); a replay of imported data against what its setup declares. Ends
+limits); a replay of imported data against what its setup declares.
+
+Both of the live node's streams (issue 35): the delayed solutions above (the
+record, ``nav/delayed/state``) and the current-time stream, one state per
+IMU sample (``nav/state``), replayed in the node's own arrival order and
+scored at its own stamps (position / velocity RMS, NEES); a recording that
+has both is compared with them bit for bit (``--no-current`` skips the
+current-time stream: it keeps a state per IMU sample in memory). Ends
 with ``VERDICT: PASS`` or ``VERDICT: FAIL``; exit 0 (PASS), 1 (FAIL) or 2
 (no replay possible: no such or unreadable bag, bad scenario or setup).
 """
@@ -58,6 +65,7 @@ def add_arguments(ap) -> None:
     ap.add_argument("--scenario", default=None, help="scenario name or YAML path (default: the bag's "
                     "scenario.yaml, else 'default')")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="override a scenario field")
+    ap.add_argument("--no-current", action="store_true", help="do not replay and score the current-time stream")
     ap.add_argument("--smooth", action="store_true",
                     help="also run the fixed-interval RTS smoother and print its errors next to the filter's")
     ap.add_argument("--filter", help="filter setup file (default: <bag>/filter.yaml, written by import_data)")
@@ -113,7 +121,7 @@ def main(argv=None) -> int:
 PER_MESSAGE_TYPES = frozenset({"hyper_nav_msgs/msg/GnssMeasurements", "hyper_nav_msgs/msg/GnssEphemeris"})
 
 
-def _run(bag, s: Setup, inputs: set, keep_history: bool):
+def _run(bag, s: Setup, inputs: set, keep_history: bool, keep_current: bool = False):
     """The fusion core over the bag's input topics, with progress on stderr.
     The bag is read into field arrays (``core/bag_arrays``) and the core fed
     from them (``hyper_nav_filter.offline_arrays``: ``run_offline``'s results
@@ -145,7 +153,7 @@ def _run(bag, s: Setup, inputs: set, keep_history: bool):
         records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)
                    if r.topic.lstrip("/") in inputs | {LATE_INPUTS_TOPIC}]
         sols, eng = run_offline(records, s.config, s.initial, sources=s.sources, final=True,
-                                keep_history=keep_history)
+                                keep_history=keep_history, keep_current=keep_current)
     else:
         # gnss/raw carries a string sequence (``signal``) that the field arrays split into one column per
         # index (signal.0, signal.1, ...) and a row view cannot read back as a sequence: those topics are
@@ -164,7 +172,7 @@ def _run(bag, s: Setup, inputs: set, keep_history: bool):
                  for name, rows in recs.items() if rows]
         n_fed = sum(len(t) for t in topics)
         sols, eng, _ = run_offline_arrays(topics, s.config, s.initial, sources=s.sources, final=True,
-                                          keep_history=keep_history,
+                                          keep_history=keep_history, keep_current=keep_current,
                                           progress=lambda k: progress.update((t1 - t0) * k / max(n_fed, 1)))
     progress.update(t1 - t0)
     progress.done(f"{len(sols)} solutions")
@@ -188,7 +196,7 @@ def _replay(args) -> int:
         raise ScoringError(f"{bag}: no such bag")
     s = setup(args)
     inputs = {i.topic.lstrip("/") for src in make_sources(parse_sources(s.sources), s.config) for i in src.inputs()}
-    sols, eng, truth_states, n_imu, error, truncated = _run(bag, s, inputs, args.smooth)
+    sols, eng, truth_states, n_imu, error, truncated = _run(bag, s, inputs, args.smooth, not args.no_current)
     out = run_check.Outcome()
     if truncated:
         print(f"[replay_filter] WARNING: bag is truncated ({error}); replaying what was readable")
@@ -226,6 +234,8 @@ def _replay(args) -> int:
         print(scoring.format_table(sm, s.limits, s.reference))
         print("filter vs smoother, RMS 3D: " + ", ".join(
             f"{k} {summary[k]['rms_3d']:.4g} -> {sm[k]['rms_3d']:.4g}" for k in scoring.ERROR_KEYS))
+    if not args.no_current:
+        _both_streams(bag, sols, eng.current_log or [], truth_states, s, out)
     _write_outputs(args, sols, nav, s)
     print(f"engine counters: {dict(eng.counters)}")
     noise_check.report_saved(bag / "noise_check.yaml", out)  # an import's IMU noise check (import_data)
@@ -233,6 +243,84 @@ def _replay(args) -> int:
     print(verdict_rules.format_table(per_source))
     verdict_rules.check(per_source, out)
     return scoring.verdict(out, "replay_filter")
+
+
+def stream_summary(sols, truth_states, layout, skip_s: float) -> dict | None:
+    """A stream of solutions at its own stamps after ``skip_s``: position /
+    velocity RMS 3D, mean position and velocity NEES (3 dof, its own
+    covariance)."""
+    sols = [x for x in sols if x.t_s >= skip_s]
+    if not sols or truth_states is None:
+        return None
+    try:
+        err = scoring.errors(scoring.states_from_solutions(sols), truth_states)
+    except ValueError:
+        return None
+    by_t = {round(x.t_s, 6): x for x in sols}
+    p, v = layout.sl("pos"), layout.sl("vel")
+    nees_p, nees_v = [], []
+    for t, ep, ev in zip(err["t"], err["pos_enu_m"], err["vel_enu_mps"]):
+        P = by_t[round(float(t), 6)].P
+        nees_p.append(ep @ np.linalg.solve(P[p, p], ep))
+        nees_v.append(ev @ np.linalg.solve(P[v, v], ev))
+    return {"epochs": len(err["t"]), "pos_rms_3d_m": float(np.sqrt(np.mean(np.sum(err["pos_enu_m"] ** 2, axis=1)))),
+            "vel_rms_3d_mps": float(np.sqrt(np.mean(np.sum(err["vel_enu_mps"] ** 2, axis=1)))),
+            "nees_pos_mean": float(np.mean(nees_p)), "nees_vel_mean": float(np.mean(nees_v))}
+
+
+def _equal(msgs, sols) -> tuple[int, int]:
+    """(bit for bit, position bit for bit and velocity to 1e-12 m/s): how
+    many recorded NavState messages equal the replayed solutions, in order
+    (stamps to 1 us). The second count covers bags recorded by an older
+    build whose velocity view rounded differently (1e-17 m/s)."""
+    exact = close = 0
+    for m, x in zip(msgs, sols):
+        st = x.state
+        if abs(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 - x.t_s) >= 1e-6 or \
+                (m.lat_rad, m.lon_rad, m.alt_m) != (st.lat_rad, st.lon_rad, st.alt_m):
+            continue
+        dv = float(np.max(np.abs(np.asarray(m.vel_enu_mps, float) - st.vel_enu_mps)))
+        exact += dv == 0.0
+        close += dv <= 1e-12
+    return exact, close
+
+
+def _both_streams(bag, sols, current, truth_states, s: Setup, out) -> None:
+    """Score the current-time stream beside the delayed one and, for a
+    recording that has both (``nav/delayed/state``), compare each with the
+    recorded stream bit for bit."""
+    from .core.bag import deserialize, read_bag
+    skip = s.skip_s if s.scenario is None else float(s.scenario["report.skip_s"])
+    if s.scenario is not None:
+        skip, _ = scoring.effective_skip_s(skip, float(s.scenario["duration_s"]))
+    for name, stream in (("delayed (nav/delayed/state)", sols), ("current time (nav/state)", current)):
+        sm = stream_summary(stream, truth_states, s.config.layout, skip)
+        if sm is not None:
+            print(f"{name}: {sm['epochs']} states after {skip:g} s: position RMS 3D {sm['pos_rms_3d_m']:.4g} m, "
+                  f"velocity RMS 3D {sm['vel_rms_3d_mps']:.4g} m/s, mean NEES position {sm['nees_pos_mean']:.2f}, "
+                  f"velocity {sm['nees_vel_mean']:.2f} (3 dof)")
+            out.details["current_time" if stream is current else "delayed"] = sm
+    topics = {"/nav/state": [], "/nav/delayed/state": []}
+    recorded = {"/" + t.lstrip("/") for t in read_bag(bag).topics}
+    if "/nav/delayed/state" in recorded:
+        pairs = (("/nav/delayed/state", sols), ("/nav/state", current))
+    elif "/nav/state" in recorded:               # a bag from before issue 35: nav/state was the released stream
+        pairs = (("/nav/state", sols),)
+    else:
+        return                                  # an imported recording: nothing of a live node to compare with
+    for r in read_bag(bag, topics=list(topics)):
+        topics["/" + r.topic.lstrip("/")].append(deserialize(r.raw, r.msgtype))
+    for topic, mine in pairs:
+        rec = topics[topic]
+        exact, same = _equal(rec, mine)
+        print(f"{topic}: {exact} of {len(rec)} recorded states replayed bit for bit" +
+              (f", {same} with the position bit for bit and the velocity to 1e-12 m/s" if same != exact else "") +
+              f" ({len(mine)} replayed)")
+        out.details[f"replayed_equal {topic}"] = {"bit_for_bit": exact, "equal": same, "recorded": len(rec),
+                                                 "replayed": len(mine)}
+        if same != len(rec) or len(mine) < len(rec):
+            out.failures.append(f"replay: {topic}: {len(rec) - same} of {len(rec)} recorded states differ from the "
+                                f"replay")
 
 
 def _write_outputs(args, sols, nav: dict, s: Setup) -> None:

@@ -1,4 +1,11 @@
-"""Accuracy report of a recorded run: ``nav/state`` against ``truth/state``.
+"""Accuracy report of a recorded run: the fusion node's two streams against ``truth/state``.
+
+The verdict scores the record: the delayed, arrival-order-independent
+solutions (``nav/delayed/state``; ``nav/state`` in bags recorded before the
+current-time output, issue 35). The current-time stream (``nav/state``, one
+state per IMU sample, predicted over the fusion horizon) is scored beside it
+at its own stamps: position / velocity RMS and NEES (``current_time`` in
+report.json).
 
 ``report <bag>`` prints position (E/N/U), velocity and attitude error RMS and
 max after the scenario's ``report.skip_s``, and the checks that decide its
@@ -38,11 +45,13 @@ def load_run(bag_path) -> dict:
     status (t, level, message, values), whether the bag was truncated, and
     ``run_graph.json`` (node exits) when it is there."""
     reader = read_bag(bag_path)
-    nav, truth, last_diag, by_node, timeline, late = [], [], {}, {}, {}, []
+    nav, current, truth, last_diag, by_node, timeline, late = [], [], [], {}, {}, {}, []
     for rec in reader:
         topic = rec.topic.lstrip("/")
-        if topic == "nav/state":
+        if topic == DELAYED_TOPIC:
             nav.append(deserialize(rec.raw, rec.msgtype))
+        elif topic == "nav/state":
+            current.append(deserialize(rec.raw, rec.msgtype))
         elif topic == "truth/state":
             truth.append(deserialize(rec.raw, rec.msgtype))
         elif topic == "diagnostics":
@@ -61,9 +70,46 @@ def load_run(bag_path) -> dict:
         events.sort(key=lambda e: e[0])                   # stable: equal times keep their log order
     info = pathlib.Path(bag_path) / "run_graph.json"
     graph = json.loads(info.read_text()) if info.is_file() else {}
-    return {"nav": nav, "truth": truth, "counts": dict(reader.counts), "diagnostics": last_diag,
+    if not nav and DELAYED_TOPIC not in {t.lstrip("/") for t in reader.topics}:
+        nav, current = current, []             # a bag from before issue 35: nav/state was the released stream
+    return {"nav": nav, "current": current, "truth": truth, "counts": dict(reader.counts), "diagnostics": last_diag,
             "by_node": by_node, "timeline": timeline, "truncated": reader.truncated, "error": reader.error,
             "run_graph": graph, "late_inputs": late}
+
+
+DELAYED_TOPIC = "nav/delayed/state"
+
+
+def current_time_summary(current_msgs, truth: dict, skip_s: float) -> dict | None:
+    """The current-time stream (``nav/state``) at its own stamps after
+    ``skip_s``: position / velocity RMS 3D and max, mean position and
+    velocity NEES (3 dof each, its own covariance), epochs scored."""
+    import numpy as np
+    if not current_msgs:
+        return None
+    nav = scoring.states_from_msgs(current_msgs)
+    try:
+        err = scoring.errors(nav, truth)
+    except ValueError:
+        return None
+    m = err["t"] >= skip_s
+    if not m.any():
+        return None
+    by_t = {round(scoring.stamp_to_s(msg.header.stamp), 6): msg for msg in current_msgs}
+    nees_p, nees_v = [], []
+    for t, ep, ev in zip(err["t"][m], err["pos_enu_m"][m], err["vel_enu_mps"][m]):
+        msg = by_t[round(float(t), 6)]
+        n = int(msg.state_dim)
+        P = np.asarray(msg.covariance, float).reshape(n, n)
+        pp, vv = P[6:9, 6:9], P[3:6, 3:6]            # att, vel, pos first (core.state_layout)
+        nees_p.append(ep @ np.linalg.solve(pp, ep))
+        nees_v.append(ev @ np.linalg.solve(vv, ev))
+    pos, vel = err["pos_enu_m"][m], err["vel_enu_mps"][m]
+    return {"epochs": int(m.sum()), "skip_s": skip_s,
+            "pos_rms_3d_m": float(np.sqrt(np.mean(np.sum(pos ** 2, axis=1)))),
+            "pos_max_3d_m": float(np.max(np.linalg.norm(pos, axis=1))),
+            "vel_rms_3d_mps": float(np.sqrt(np.mean(np.sum(vel ** 2, axis=1)))),
+            "nees_pos_mean": float(np.mean(nees_p)), "nees_vel_mean": float(np.mean(nees_v))}
 
 
 def _newer(values: dict, old: dict | None) -> bool:
@@ -175,6 +221,14 @@ def _report(args) -> int:
         f"{t} {r.get('published', '-')}/{r['recorded']}" + "".join(
             f"/{v}" for k, v in sorted(r.items()) if k.startswith(("received_by", "processed_by")))
         for t, r in sorted(rows.items())) + "  (published/recorded[/processed/received at fusion])")
+    cur = current_time_summary(run["current"], truth, summary["skip_s"] if summary else sc["report.skip_s"])
+    if cur is not None:
+        out.details["current_time"] = cur
+        delayed = (summary or {}).get("pos_enu_m", {}).get("rms_3d")
+        print(f"current-time stream (nav/state, {cur['epochs']} states after {cur['skip_s']:g} s): position RMS 3D "
+              f"{cur['pos_rms_3d_m']:.3f} m (delayed {delayed if delayed is None else f'{delayed:.3f}'} m), max "
+              f"{cur['pos_max_3d_m']:.3f} m, velocity RMS 3D {cur['vel_rms_3d_mps']:.4f} m/s; mean NEES position "
+              f"{cur['nees_pos_mean']:.2f}, velocity {cur['nees_vel_mean']:.2f} (3 dof)")
     code = scoring.verdict(out, "report")
     report = {"scenario": sc.name, "bag": str(bag), "verdict": out.verdict, "failures": out.failures,
               "warnings": out.warnings, "truncated": run["truncated"], "summary": summary,

@@ -107,7 +107,7 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
                      wait_s: float = 60.0, also: dict | None = None, latched=(), logs: dict | None = None) -> list:
     """Play ``topics`` of ``bag`` (the player, wall-clock paced at ``rate``
     and never ahead of what the fusion node allows, no /clock) into a live fusion node set up by ``scenario`` (a scenario
-    name or YAML file) and return its first ``count`` ``nav/state`` messages,
+    name or YAML file) and return its first ``count`` ``nav/delayed/state`` messages (the released stream),
     to compare with ``hyper_nav_filter.offline.run_offline`` over the same
     bag (live == offline). Raises AssertionError with the node's log if the
     player fails or fewer than ``count`` solutions arrive within ``wait_s``.
@@ -117,7 +117,7 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
     from hyper_nav_msgs.msg import NavState
 
     from .graph import Graph
-    outputs = {"nav/state": NavState, **(also or {})}
+    outputs = {"nav/delayed/state": NavState, **(also or {})}
     # paced by the fusion node's allowance too (hyper_nav_filter.clock_gate): on a loaded machine the
     # player waits for the node instead of overrunning its input queues (a fresh run under load lost data)
     player = {"bag": str(bag), "rate": float(rate), "topics": list(topics), "wait_for_subscribers": 1,
@@ -126,23 +126,23 @@ def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, 
         with TopicCollector(outputs, domain_id=g.domain_id, latched=latched) as c:
             # the fusion node's outputs matched from the collector's side before any input flows (else its
             # first solutions can be sent before the collector takes them: lost)
-            assert c.wait_matched(["nav/state"]), "the fusion node's nav/state never matched the collector"
+            assert c.wait_matched(["nav/delayed/state"]), "the fusion node's nav/delayed/state never matched the collector"
             g.node_params["player"] = player
             g._spawn("player")
             assert g.procs["player"].wait(timeout=player_timeout_s) == 0, g.log("player")
-            enough = lambda m: len(m["nav/state"]) >= count               # noqa: E731
+            enough = lambda m: len(m["nav/delayed/state"]) >= count       # noqa: E731
             if not _wait_quiet(c, enough, wait_s):
                 # the node holds its last output_delay_s of solutions until newer IMU data come or it
                 # stops: SIGINT, and it publishes them (publish_final_solutions), as the offline core
                 # releases them at the end of the bag
                 g.stop()
                 c.wait_for(enough, wait_s)
-            assert enough(c.messages), (len(c.messages["nav/state"]), count, g.log("fusion"))
+            assert enough(c.messages), (len(c.messages["nav/delayed/state"]), count, g.log("fusion"))
             for t in also or {}:
                 also[t] = list(c.messages[t])
             if logs is not None:
                 logs.update({n: g.log(n) for n in ("player", "fusion")})
-            return list(c.messages["nav/state"])[:count]
+            return list(c.messages["nav/delayed/state"])[:count]
 
 
 def _wait_quiet(c: TopicCollector, predicate, timeout_s: float, quiet_s: float = 3.0) -> bool:

@@ -1,7 +1,7 @@
 """Geomagnetic matching node (seed 003): magnetometer + navigation solution
 in, horizontal position fixes out.
 
-Subscribes ``imu/mag`` (sensor_msgs/MagneticField) and ``nav/state``
+Subscribes ``imu/mag`` (sensor_msgs/MagneticField) and ``nav/delayed/state``
 (hyper_nav_msgs/NavState); publishes ``geomag/fix`` (sensor_msgs/NavSatFix:
 the fix, ENU covariance whose EN block is meaningful, vertical variance
 1e12 m^2 = none) and ``geomag/quality`` (hyper_nav_msgs/MatchQuality, one
@@ -139,8 +139,8 @@ class GeomagNode(Node):
         self._wait_timer.cancel()
         qos = subscriber_qos(self.p["qos.reliable_subscriptions"], self.p["qos.depth"])
         self._subs = [self.create_subscription(MagneticField, "imu/mag", self._on_mag, qos),
-                      self.create_subscription(NavStateMsg, "nav/state", self._on_nav, qos)]
-        self.get_logger().info(f"{self.cfg.algorithm}: subscribed to imu/mag and nav/state")
+                      self.create_subscription(NavStateMsg, "nav/delayed/state", self._on_nav, qos)]
+        self.get_logger().info(f"{self.cfg.algorithm}: subscribed to imu/mag and nav/delayed/state")
 
     def _load_map(self):
         log = self.get_logger()

@@ -1,6 +1,6 @@
 """Lever-arm learning node (RL-DLAC, seed 000 section III, Fig. 5).
 
-Subscribes ``nav/state`` (hyper_nav_msgs/NavState, the fused solution),
+Subscribes ``nav/delayed/state`` (hyper_nav_msgs/NavState, the fused solution as released),
 ``gnss/fix`` (NavSatFix), ``gnss/vel`` (TwistWithCovarianceStamped, ENU) and
 ``imu/data_raw`` (sensor_msgs/Imu); keeps the latest window of them
 (``core.lever_arm.window.WindowBuffer``); feeds the position residual
@@ -87,10 +87,10 @@ class LeverArmLearningNode(Node):
         self._subs = [self.create_subscription(Imu, "imu/data_raw", self._timed(self._on_imu), qos),
                       self.create_subscription(NavSatFix, "gnss/fix", self._timed(self._on_fix), qos),
                       self.create_subscription(TwistWithCovarianceStamped, "gnss/vel", self._timed(self._on_vel), qos),
-                      self.create_subscription(NavStateMsg, "nav/state", self._timed(self._on_state), qos)]
+                      self.create_subscription(NavStateMsg, "nav/delayed/state", self._timed(self._on_state), qos)]
         if self._pairing is not None:
             self._subs.append(self.create_subscription(Imu, self.p.load_topic, self._timed(self._on_load), qos))
-        self.get_logger().info("worker ready; subscribed to imu/data_raw, gnss/fix, gnss/vel, nav/state"
+        self.get_logger().info("worker ready; subscribed to imu/data_raw, gnss/fix, gnss/vel, nav/delayed/state"
                                + (f", {self.p.load_topic}" if self._pairing is not None else ""))
 
     # ---- callbacks -------------------------------------------------------------------

@@ -4,7 +4,7 @@ of the satellites whose tracking loops lost lock.
 Subscribes ``gnss/raw`` (hyper_nav_msgs/GnssMeasurements: the tracking
 state), ``gnss/ephemeris`` (hyper_nav_msgs/GnssEphemeris, transient local),
 ``imu/data_raw`` (sensor_msgs/Imu) and, by ``virtual_gnss.position_source``,
-``nav/state`` (hyper_nav_msgs/NavState, ``fused``) or ``gnss/fix``
+``nav/delayed/state`` (hyper_nav_msgs/NavState, ``fused``) or ``gnss/fix``
 (sensor_msgs/NavSatFix, ``alpha_beta``). Publishes
 ``virtual_gnss.topic`` (default ``gnss/virtual``, GnssMeasurements with
 ``is_virtual`` and ``locked`` set on every channel, header.stamp = the
@@ -58,7 +58,7 @@ class VirtualGnssNode(Node):
                       self.create_subscription(GnssMeasurements, "gnss/raw", self._on_raw, qos),
                       self.create_subscription(Imu, "imu/data_raw", lambda m: self._publish(inp.on_imu(m)), qos)]
         if self.p.config.position_source == "fused":
-            self._subs.append(self.create_subscription(NavStateMsg, "nav/state",
+            self._subs.append(self.create_subscription(NavStateMsg, "nav/delayed/state",
                                                     lambda m: self._publish(inp.on_state(m)), qos))
         else:
             self._subs.append(self.create_subscription(NavSatFix, "gnss/fix", inp.on_fix, qos))

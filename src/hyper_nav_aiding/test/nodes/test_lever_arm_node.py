@@ -85,7 +85,7 @@ def test_a_timed_out_reestimation_keeps_the_model_and_says_so():
         pubs = {"imu": feeder.create_publisher(Imu, "imu/data_raw", qos),
                 "fix": feeder.create_publisher(NavSatFix, "gnss/fix", qos),
                 "vel": feeder.create_publisher(TwistWithCovarianceStamped, "gnss/vel", qos),
-                "state": feeder.create_publisher(NavStateMsg, "nav/state", qos)}
+                "state": feeder.create_publisher(NavStateMsg, "nav/delayed/state", qos)}
         got = {"diag": [], "update": []}
         feeder.create_subscription(DiagnosticArray, "/diagnostics", lambda m: got["diag"].append(m), 100)
         feeder.create_subscription(ModelUpdate, "nav/model_update", lambda m: got["update"].append(m), 10)

@@ -49,6 +49,18 @@ CORE_PARAMS = (
     positive("reprocess_window_s", FLOAT, 3.0, "how far back (s) a late measurement can still be applied exactly"),
     nonneg("output_delay_s", FLOAT, 1.0, "solutions are released this far (s) behind the newest IMU epoch"),
     positive("output_rate_hz", FLOAT, 50.0, "solution output rate (Hz)"),
+    nonneg("fusion_delay_s", FLOAT, 0.0, "fusion time horizon (s): IMU samples are fused this far behind the newest "
+           "one, so measurements delivered within it are never late (the largest declared source delay, "
+           "filter.sources.<id>.delay_s, raises it); the current-time state is predicted over it"),
+    ParamSpec("output_predictor", STR, "complementary", "how the current-time state follows a correction of the "
+              "fusion horizon (core.output_predictor): repropagate (re-run the strapdown from the corrected state) "
+              "or complementary (PX4 EKF2: fed back with time constants output_tau_*_s)",
+              choices=("repropagate", "complementary")),
+    positive("output_tau_att_s", FLOAT, 0.25, "complementary output predictor: attitude time constant (s)"),
+    positive("output_tau_vel_s", FLOAT, 0.25, "complementary output predictor: velocity time constant (s) "
+             "(PX4 EKF2_TAU_VEL)"),
+    positive("output_tau_pos_s", FLOAT, 0.25, "complementary output predictor: position time constant (s) "
+             "(PX4 EKF2_TAU_POS)"),
     positive("imu_gap_s", FLOAT, 0.25, "an IMU interval longer than this (s) is a gap: bridged, counted, reported"),
     nonneg("gap_accel_sigma_mps2", FLOAT, 2.0,
            "1-sigma deviation of the specific force from its interpolation across an IMU gap (m/s^2), inflates P"),
@@ -68,6 +80,10 @@ def _post_init(self):
     if self.output_delay_s >= self.reprocess_window_s:
         raise ConfigError("filter config field 'output_delay_s': must be < reprocess_window_s "
                           f"({self.output_delay_s:g} >= {self.reprocess_window_s:g})")
+    if self.fusion_delay_s > self.output_delay_s:
+        raise ConfigError("filter config field 'fusion_delay_s': must be <= output_delay_s "
+                          f"({self.fusion_delay_s:g} > {self.output_delay_s:g}): the record is released behind "
+                          "the fusion horizon")
     if np.linalg.norm(np.asarray(self.lever_arm_deflection_axis_b, float)) == 0:
         raise ConfigError("filter config field 'lever_arm_deflection_axis_b': must be non-zero")
     try:

@@ -276,6 +276,48 @@ class ErrorStateKF:
         self.last_Phi, self.P_prior = Phi, self.P
         self.epoch_dx = None
 
+    def propagate_nominal(self, x_nav, t_s: float, values, imu_prev: ImuSample | None, imu: ImuSample):
+        """The nominal half of ``predict``, on a given state and without P:
+        the interval corrected with ``values`` (biases, scale factors, the
+        lever-arm pre-processing of its blocks), the frame's mechanization and
+        the blocks' nominal propagation. Returns (x_nav, values, imu as kept
+        for the next interval's coning/sculling terms). Nothing of the filter
+        changes (the output predictor, ``core.output_predictor``, runs it
+        ahead of the fusion horizon); equal to ``predict``'s nominal state to
+        rounding (tested)."""
+        dt = imu.dt_s
+        new_vals = values
+        if self._preprocessors:
+            dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, dt, values)
+            w_prev = None if imu_prev is None else \
+                self.corrected(imu_prev.dtheta_b_rad, imu_prev.dvel_b_mps, imu_prev.dt_s, values)[0] / imu_prev.dt_s
+            new_vals = values.copy()
+            for blk, s in self._preprocessors:
+                dv_remove, new_vals[s] = blk.preprocess(values[s], dth, dv, w_prev, dt, self.cfg, self.fast,
+                                                        imu.load_f_b_mps2)
+                imu = imu._replace(dvel_b_mps=imu.dvel_b_mps - dv_remove)
+        x1 = self.frame.mechanize_nominal(x_nav, t_s, values, imu, imu_prev, self.sys)
+        for blk, s in self._propagated:
+            new_vals = new_vals.copy() if new_vals is values else new_vals
+            new_vals[s] = blk.propagate(new_vals[s], dt, self.cfg)
+        return x1, new_vals, imu
+
+    def lead_covariance(self, P, x_nav, t_s: float, values, imu: ImuSample, lead_s: float) -> np.ndarray:
+        """P carried over ``lead_s`` seconds in one step, Phi P Phi^T + Q
+        (``system_model.discretize``), with F at the state (x_nav, values) and
+        the body rate and specific force of ``imu`` (the newest interval):
+        the covariance of the output predictor's state, lead_s ahead of the
+        filter's. P itself when lead_s is 0."""
+        if lead_s <= 0.0:
+            return P
+        dth, dv = self.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, values)
+        w, f = dth / imu.dt_s, dv / imu.dt_s
+        F9, C = self.frame.error_dynamics(x_nav, t_s, f, w)
+        F, G, qc = self.sys.matrices(F9, C, w, f, np.zeros(3))
+        Phi, Q = discretize(F, G, qc, lead_s, self.sys.exact)
+        out = Phi @ P @ Phi.T + Q
+        return 0.5 * (out + out.T)
+
     def _add_rate_error_q(self, imu: ImuSample) -> None:
         """The attitude block's rate-proportional gyro error (``blocks.nav``,
         gyro_rate_error_pct): isotropic, added to P's attitude diagonal after

@@ -16,6 +16,17 @@ fixed grid of ``output_rate_hz`` (t0 + n / rate), which makes them
 independent of arrival order for delays up to that value (the live node and
 an offline run over a bag give identical numbers).
 
+Current time (STYLE pattern 19): the filter fuses up to the *fusion
+horizon*, ``fusion_delay_s`` behind the newest IMU sample (0: at it); the
+samples ahead of it wait in a buffer, so a measurement delivered within its
+declared delay is never late (no re-processing). At every accepted IMU
+sample the engine also forms ``current``: the state at that sample's stamp,
+the filter's newest state carried over the buffered samples by the output
+predictor (``core.output_predictor``) with the estimated sensor errors, its
+covariance carried over the lead. The released solutions do not depend on
+the horizon (the same epochs with the same events); the current-time stream
+depends on arrival order by nature (``replay_order`` reproduces it).
+
 IMU gaps: an interval longer than ``imu_gap_s`` (a hole in a bag, a dropped
 stream) is bridged up to one nominal interval before the new sample with
 body rates interpolated linearly between the last sample before the gap and
@@ -40,6 +51,7 @@ from .eskf import ErrorStateKF
 from .measurements import ModelContext, is_finite
 from .model_update import ModelUpdate
 from .nav_state import ImuSample, NavState
+from .output_predictor import OutputPredictor
 from .params import ConfigError
 
 # NavState.msg modes
@@ -106,6 +118,9 @@ class Solution:
 
     def _rates(self):
         kf, snap, imu = self._src
+        if imu is None:                           # the time line's first sample (no interval flown yet)
+            self._w, self._f = np.zeros(3), np.zeros(3)
+            return
         dth, dv = kf.corrected(imu.dtheta_b_rad, imu.dvel_b_mps, imu.dt_s, snap.values)
         self._w, self._f = dth / imu.dt_s, dv / imu.dt_s
 
@@ -120,6 +135,34 @@ class Solution:
         if self._f is None:
             self._rates()
         return self._f
+
+
+class CurrentSolution(Solution):
+    """The current-time state (``FusionEngine.current``): a ``Solution`` at
+    the newest IMU sample, from the output predictor; its covariance is the
+    fusion horizon's carried over the lead, computed when read."""
+    __slots__ = ("pred", "_predictor")
+
+    @classmethod
+    def of_prediction(cls, kf, predictor, pred, mode, sources) -> "CurrentSolution":
+        a = pred.anchor
+        sol = cls(pred.t_s, None, None, mode, a.n_updates, a.n_rejected, a.last_nis, sources=sources)
+        snap = a._replace(t_s=pred.t_s, x_nav=pred.x_nav, values=pred.values, imu_prev=pred.imu)
+        sol._src = (kf, snap, pred.imu)
+        sol.pred, sol._predictor = pred, predictor
+        return sol
+
+    @property
+    def lead_s(self) -> float:
+        """How far (s) the state is predicted ahead of the filter's."""
+        return self.pred.lead_s
+
+    @property
+    def P(self) -> np.ndarray:
+        if self._P is None:
+            kf, snap, _ = self._src
+            self._P = kf.P_enu(snap._replace(P=self._predictor.covariance(self.pred)))
+        return self._P
 
 
 class _Epoch:
@@ -160,10 +203,38 @@ class FusionEngine:
         self._pending_gap_Q = None
         self.counters: Counter = Counter()
         self.gaps: list[tuple[float, float]] = []
+        self._ahead: list[ImuSample] = []         # samples ahead of the fusion horizon ...
+        self._ahead_Q: list = []                  # ... and their IMU-gap inflations
+        self._new: list = []                      # samples accepted since the last current state
+        self._revision = 0                        # corrections applied (the output predictor follows it)
+        self.predictor = OutputPredictor(self.kf, cfg.output_predictor, cfg.output_tau_att_s,
+                                         cfg.output_tau_vel_s, cfg.output_tau_pos_s)
+        self.fusion_delay_s = float(cfg.fusion_delay_s)
+        self.current: CurrentSolution | None = None   # the state at the newest IMU sample
+        self.current_log: list | None = None      # a list: every current-time state is kept (offline replay)
 
     @property
     def t_latest_s(self) -> float:
+        """Stamp of the newest IMU sample."""
+        if self._ahead:
+            return self._ahead[-1].t_s
         return self._times[-1] if self._times else self._base.t_s
+
+    @property
+    def t_horizon_s(self) -> float:
+        """Stamp of the filter's newest epoch (the fusion horizon)."""
+        return self._times[-1] if self._times else self._base.t_s
+
+    def set_fusion_delay(self, delay_s: float) -> None:
+        """The fusion horizon (s behind the newest IMU sample): the largest
+        declared source delay (``sources``) or ``fusion_delay_s``, at most
+        ``output_delay_s``. Set before the first sample."""
+        if self._times or self._ahead:
+            raise RuntimeError("set_fusion_delay: the engine has started")
+        if not 0.0 <= delay_s <= self.cfg.output_delay_s:
+            raise ConfigError(f"fusion delay {delay_s:g} s: must be within [0, output_delay_s = "
+                              f"{self.cfg.output_delay_s:g}] (a declared source delay too long for the record)")
+        self.fusion_delay_s = float(delay_s)
 
     @property
     def last_released_t_s(self) -> float:
@@ -212,6 +283,18 @@ class FusionEngine:
 
     def _accept_imu(self, t_s, dth, dv, rates=None, load=None) -> None:
         dt = t_s - self.t_latest_s
+        if self._last_dt is None and not self._times and not self._ahead and dt > self.cfg.imu_gap_s:
+            # the first sample, far after the initial state's epoch (a live vehicle whose init.t_s was left at
+            # 0): it starts the time line; the initial state is taken at its stamp, its interval not flown
+            self.kf.t_s = self._t0_out = t_s
+            self._base = self.kf.snapshot()
+            self._last_dt = math.inf
+            self.counters["imu_time_origin"] += 1
+            self.counters["imu_accepted"] += 1
+            self._predict_current()
+            return
+        if self._last_dt == math.inf:
+            self._last_dt = None
         if dt > self.cfg.imu_gap_s and self._last_dt is not None:
             # the new sample covers its own (nominal) interval: rates given, or increments / nominal interval
             w1, f1 = rates if rates is not None else (dth / self._last_dt, dv / self._last_dt)
@@ -220,11 +303,52 @@ class FusionEngine:
             dth, dv = w1 * dt, f1 * dt
         if self._dirty_from != math.inf:
             self._catch_up()
-        self._append_epoch(ImuSample(t_s, dt, dth, dv, load))
+        self._push(ImuSample(t_s, dt, dth, dv, load))
         self._last_dt = dt
         self.counters["imu_accepted"] += 1
-        if self._times[self._n_out_of_window] < t_s - self.cfg.reprocess_window_s:
+        self._advance(t_s - self.fusion_delay_s)
+        if self._times and self._times[self._n_out_of_window] < t_s - self.cfg.reprocess_window_s:
             self._trim()
+        self._predict_current()
+
+    def _push(self, imu: ImuSample) -> None:
+        """A new sample: fused now (no fusion delay) or buffered ahead of the horizon."""
+        self._new.append(imu)
+        if self.fusion_delay_s == 0.0:
+            self._append_epoch(imu)
+        else:
+            Q, self._pending_gap_Q = self._pending_gap_Q, None
+            self._ahead.append(imu)
+            self._ahead_Q.append(Q)
+
+    def _advance(self, t_horizon: float) -> None:
+        """Fuse the buffered samples up to the horizon (late events first)."""
+        ahead = self._ahead
+        if not ahead or ahead[0].t_s > t_horizon + _EPS_S:
+            return
+        if self._dirty_from != math.inf:
+            self._catch_up()
+        n = 0
+        while n < len(ahead) and ahead[n].t_s <= t_horizon + _EPS_S:
+            self._pending_gap_Q = self._ahead_Q[n]
+            self._append_epoch(ahead[n])
+            n += 1
+        del ahead[:n]
+        del self._ahead_Q[:n]
+
+    def _predict_current(self) -> None:
+        """The state at the newest sample (``current``): the output predictor
+        over the samples ahead of the filter's newest epoch."""
+        if self._dirty_from != math.inf:
+            self._catch_up()
+        ep = self._epochs[-1] if self._epochs else None
+        anchor = ep.snap if ep is not None else self._base
+        pred = self.predictor.step(anchor, self._revision, self._ahead, self._new)
+        self._new = []
+        mode, kinds = self._mode(ep) if ep is not None else (MODE_INITIALIZING, ())
+        self.current = CurrentSolution.of_prediction(self.kf, self.predictor, pred, mode, kinds)
+        if self.current_log is not None:
+            self.current_log.append(self.current)
 
     def add_measurement(self, meas) -> tuple[bool, str]:
         """Queue an aiding measurement (``meas.t_s`` is its epoch). Late ones
@@ -279,7 +403,7 @@ class FusionEngine:
         step adds its share of the gap's covariance growth (``_gap_Q``), and
         so does the new sample's own interval."""
         t_start = self.t_latest_s
-        last = self._epochs[-1].imu if self._epochs else self._base.imu_prev
+        last = self._ahead[-1] if self._ahead else self._epochs[-1].imu if self._epochs else self._base.imu_prev
         step_nom = self._last_dt
         t_end = t_s - step_nom
         span = t_end - t_start
@@ -296,7 +420,7 @@ class FusionEngine:
             a = (t_i - 0.5 * h_i - t0_rate) / (t1_rate - t0_rate)
             w, f = w0 + a * (w1 - w0), f0 + a * (f1 - f0)
             self._pending_gap_Q = self._gap_Q(h_i, t_s - t_start)
-            self._append_epoch(ImuSample(t_i, h_i, w * h_i, f * h_i))
+            self._push(ImuSample(t_i, h_i, w * h_i, f * h_i))
             self.counters["imu_bridge_epochs"] += 1
         self._pending_gap_Q = self._gap_Q(t_s - t_end, t_s - t_start)
         self.counters["imu_gaps"] += 1
@@ -329,6 +453,7 @@ class FusionEngine:
         """Re-process the stored epochs from the earliest one a late event touched."""
         if self._dirty_from < len(self._epochs):
             k0 = int(self._dirty_from)
+            self._revision += 1
             self.counters["epochs_reprocessed"] += len(self._epochs) - k0
             for k in range(k0, len(self._epochs)):
                 self._process_epoch(k, self._epochs[k].imu)
@@ -368,6 +493,8 @@ class FusionEngine:
     def _apply(self, ep: "_Epoch", events) -> None:
         """Apply events (in order) to the filter, which is at epoch ``ep``
         after its predict and any earlier events; then snapshot the epoch."""
+        if events:
+            self._revision += 1
         for key in events:
             t_m, ev = key[0], key[-1]
             if ev.kind == "model_update":
@@ -386,6 +513,8 @@ class FusionEngine:
     def release(self, final: bool = False) -> list[Solution]:
         """Solutions now older than output_delay_s (all of them when final), on
         the output grid t0 + n / output_rate_hz."""
+        if final:
+            self._advance(math.inf)
         if self._dirty_from != math.inf:
             self._catch_up()
         out = []
@@ -406,6 +535,7 @@ class FusionEngine:
 
     def full_history(self) -> list:
         """Every processed epoch so far (needs keep_history=True)."""
+        self._advance(math.inf)
         self._catch_up()
         if not self.keep_history:
             raise RuntimeError("FusionEngine(keep_history=True) is needed for the smoother")

@@ -4,12 +4,25 @@ Inputs are the ``sources`` table (``hyper_nav_filter.sources``; ROS
 parameters ``sources`` and ``sources.<id>.type|topic|qos|...``, written by
 ``run_graph`` from the scenario's ``filter.sources``): each source subscribes
 its topic(s) with its QoS and converts messages to core measurements, IMU
-samples or model updates. Publishes ``nav/state`` (hyper_nav_msgs/NavState),
-``nav/odom`` (nav_msgs/Odometry), ``nav/fix`` (NavSatFix), the transforms
-(REP-105: ``map -> base_link`` of every solution on ``/tf``; ``base_link ->
-imu_link / gnss_antenna / magnetometer`` once on ``/tf_static``, transient
-local) and ``/diagnostics`` (counters per input topic, gate statistics, mode
-and the sources it runs on, stream liveness, heartbeat). The initial state
+samples or model updates. Two output streams (STYLE pattern 19):
+
+* current time, for guidance, control and ``/tf`` users: at every accepted
+  IMU sample (every ``output.current_decimation``-th), the state at that
+  sample's stamp (``FusionEngine.current``: predicted over the fusion
+  horizon): ``nav/state`` (hyper_nav_msgs/NavState with covariance),
+  ``nav/odom`` (nav_msgs/Odometry), ``nav/fix`` (NavSatFix) and REP-105
+  ``map -> base_link`` on ``/tf``, stamped with the IMU message's own
+  stamp; published in the IMU message's callback, as soon as the engine has
+  taken the sample and before the released solutions;
+* delayed, for the record, replay and scoring: the released solutions,
+  ``output_delay_s`` behind and independent of arrival order, on
+  ``nav/delayed/state``, ``nav/delayed/odom``, ``nav/delayed/fix`` (aiding
+  nodes that feed back into the filter subscribe these).
+
+Also ``base_link -> imu_link / gnss_antenna / magnetometer`` once on
+``/tf_static`` (transient local) and ``/diagnostics`` (counters per input
+topic, gate statistics, mode and the sources it runs on, stream liveness,
+heartbeat). The initial state
 (``init.*``, ``core.initial_state``) includes the IMU error values. All math is in
 ``hyper_nav_filter.core``; parameters are declared once with descriptors
 (``core.params``).
@@ -17,6 +30,7 @@ and the sources it runs on, stream liveness, heartbeat). The initial state
 from __future__ import annotations
 
 import importlib
+import sys
 import time
 
 import numpy as np
@@ -42,7 +56,8 @@ from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields,
                       static_transform_fields, transform_fields)
 from ..ros_util import (all_matched, assign_fields, declare_params, diagnostic_array, latched_qos, publisher_qos,
                        run_node, subscriber_qos)
-from ..sources import load_plugins, table_from_params
+from ..sources import DEFAULT_TABLE, load_plugins, table_from_params
+from ..sources.base import DELAY_PARAM
 from ..sources.router import SourceRouter
 
 NODE_PARAMS = (
@@ -73,6 +88,8 @@ NODE_PARAMS = (
              "IMU runs, is reported stale (WARN)"),
     positive("liveness.imu_timeout_s", FLOAT, 3.0, "no IMU message for this long (wall s) after the first is "
              "reported (WARN)"),
+    ParamSpec("output.current_decimation", INT, 1, "publish the current-time state (nav/state, nav/odom, nav/fix, "
+              "/tf) at every n-th IMU sample", lo=1, hi=100000),
     ParamSpec("publish_final_solutions", BOOL, True, "release and publish the last output_delay_s of solutions "
               "at shutdown"),
     positive("clock.lead_s", FLOAT, 0.5, "the simulated clock may run at most this far (sim s) ahead of the newest "
@@ -83,7 +100,8 @@ NODE_PARAMS = (
              "that /clock (+ clock.lead_s) instead: an empty IMU stream is not a node behind its queue. Below "
              "clock.lead_s, or the clock could never get there"),
 )
-_OUTPUTS = ("nav/state", "nav/odom", "nav/fix")
+_OUTPUTS = ("nav/state", "nav/odom", "nav/fix")                              # current time, IMU rate
+DELAYED_OUTPUTS = ("nav/delayed/state", "nav/delayed/odom", "nav/delayed/fix")    # released, order-independent
 
 
 def message_class(type_name: str):
@@ -114,6 +132,10 @@ class FusionNode(Node):
         self.pub_state = self.create_publisher(NavStateMsg, "nav/state", qos)
         self.pub_odom = self.create_publisher(Odometry, "nav/odom", qos)
         self.pub_fix = self.create_publisher(NavSatFix, "nav/fix", qos)
+        self.pub_delayed = (self.create_publisher(NavStateMsg, DELAYED_OUTPUTS[0], qos),
+                            self.create_publisher(Odometry, DELAYED_OUTPUTS[1], qos),
+                            self.create_publisher(NavSatFix, DELAYED_OUTPUTS[2], qos))
+        self._n_imu = 0
         self.pub_tf = self.pub_tf_static = None
         if p["tf.publish"]:
             self.pub_tf = self.create_publisher(TFMessage, "/tf", qos)
@@ -143,7 +165,7 @@ class FusionNode(Node):
         self._idle_wall = 0.0
         self.create_timer(0.02, self._check_idle, clock=rclpy.clock.Clock(clock_type=rclpy.clock.ClockType.STEADY_TIME))
         self._set_allowance()
-        self.counts = {f"published {t}": 0 for t in _OUTPUTS}
+        self.counts = {f"published {t}": 0 for t in _OUTPUTS + DELAYED_OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
         if self.pub_tf is not None:
             self.counts.update({"published tf": 0, "published tf_static": 0})
@@ -156,14 +178,17 @@ class FusionNode(Node):
 
     def _declare_sources(self) -> dict:
         """The sources table from the flat parameters (declared with descriptors)."""
-        ids = self.declare_parameter("sources", ["imu", "gnss_fix", "gnss_vel"]).value
+        ids = self.declare_parameter("sources", list(DEFAULT_TABLE)).value
         values = {"sources": list(ids)}
         for sid in ids:
+            dflt = DEFAULT_TABLE.get(sid, {})             # imu, gnss_fix, gnss_vel: loosely coupled by default
             base = [ParamSpec(f"sources.{sid}.{k}", STR, d, desc) for k, d, desc in (
-                ("type", "", "registered source type"), ("topic", "", "input topic"),
+                ("type", dflt.get("type", ""), "registered source type"),
+                ("topic", dflt.get("topic", ""), "input topic"),
                 ("qos", "reliable", "reliable or sensor_data"), ("msg", "", "ROS message type (default: the type's)"))]
             for s in base:
                 values[s.name] = self.declare_parameter(s.name, s.default).value
+            values[f"sources.{sid}.delay_s"] = declare_params(self, (DELAY_PARAM,), f"sources.{sid}.")["delay_s"]
             registry = load_plugins()                 # the built-in types and those other packages declare
             cls = registry.get(values[f"sources.{sid}.type"])
             if cls is None:
@@ -210,6 +235,10 @@ class FusionNode(Node):
             # the arrival order: not a late input)
             report, after_release = self.late.arrival(topic, t_ns, imu, self.engine.last_released_t_s)
         reason, sols = self.router.handle(src, role, msg)
+        if imu and reason is None:
+            self._n_imu += 1
+            if self._n_imu % self.p["output.current_decimation"] == 0 and self.engine.current is not None:
+                self._publish_current(self.engine.current, msg.header.stamp)
         if reason is None and not src.drives_time:
             self._last_msg_t[src.id] = self.engine.t_latest_s
         elif reason is not None:
@@ -257,25 +286,39 @@ class FusionNode(Node):
         self.pub_late.publish(m)
         self.counts[f"published {LATE_INPUTS_TOPIC}"] += 1
 
+    def _publish_stream(self, sol, pubs, names, stamp=None):
+        """NavState, Odometry and NavSatFix of one solution; its map pose.
+        ``stamp``: the header stamp as received (the IMU message's: float
+        seconds of a wall-clock epoch keep 0.24 us, not the nanoseconds)."""
+        m = NavStateMsg()
+        assign_fields(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
+        pose = map_pose(sol, self.frames)
+        o = Odometry()
+        assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames, pose))
+        f = NavSatFix()
+        assign_fields(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
+        for out, pub in zip((m, o, f), pubs):
+            if stamp is not None:
+                out.header.stamp = stamp
+            pub.publish(out)
+        for t in names:
+            self.counts[f"published {t}"] += 1
+        return pose
+
+    def _publish_current(self, sol, stamp):
+        """The current-time state (nav/state, nav/odom, nav/fix, /tf), stamped as its IMU sample."""
+        pose = self._publish_stream(sol, (self.pub_state, self.pub_odom, self.pub_fix), _OUTPUTS, stamp)
+        if self.pub_tf is not None:
+            tf = TransformStamped()
+            assign_fields(tf, transform_fields(sol, self.frames, pose))
+            tf.header.stamp = stamp
+            self.pub_tf.publish(TFMessage(transforms=[tf]))
+            self.counts["published tf"] += 1
+
     def _publish(self, solutions):
+        """Released solutions (the delayed stream)."""
         for sol in solutions:
-            m = NavStateMsg()
-            assign_fields(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
-            self.pub_state.publish(m)
-            pose = map_pose(sol, self.frames)
-            o = Odometry()
-            assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames, pose))
-            self.pub_odom.publish(o)
-            f = NavSatFix()
-            assign_fields(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
-            self.pub_fix.publish(f)
-            for t in _OUTPUTS:
-                self.counts[f"published {t}"] += 1
-            if self.pub_tf is not None:
-                tf = TransformStamped()
-                assign_fields(tf, transform_fields(sol, self.frames, pose))
-                self.pub_tf.publish(TFMessage(transforms=[tf]))
-                self.counts["published tf"] += 1
+            self._publish_stream(sol, self.pub_delayed, DELAYED_OUTPUTS)
 
     def _publish_static_transforms(self):
         """base_link -> imu_link / gnss_antenna / magnetometer (lever arms, body FLU; the IMU's mounting
@@ -352,7 +395,11 @@ def main(args=None):
     # up to 5 s for every subscriber to acknowledge the final solutions (the last
     # output_delay_s of them go out at shutdown; at 0.3 s a loaded recorder missed
     # 11 of 100 while a second subscriber of nav/state was shutting down too)
-    run_node(FusionNode, args, linger_s=5.0)
+    try:
+        run_node(FusionNode, args, linger_s=5.0)
+    except ConfigError as exc:                 # a wrong parameter: one line naming it, no traceback
+        print(f"fusion_node: parameter error: {exc}", file=sys.stderr)
+        sys.exit(2)
 
 
 if __name__ == "__main__":

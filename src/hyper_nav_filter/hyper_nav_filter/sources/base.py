@@ -8,6 +8,12 @@ The fusion node's inputs are a table, ``filter.sources`` in the scenario:
         gnss_fix: {type: gnss_fix,    topic: gnss/fix}
         baro:     {type: baro_height, topic: baro/pressure, qos: sensor_data, max_alt_m: 40000.0}
 
+Every entry may declare ``delay_s``: the source's known latency (a receiver
+that emits its fix 0.2 s after its epoch; PX4's ``EKF2_*_DELAY``). The
+largest declared delay sizes the engine's fusion horizon
+(``FusionEngine.set_fusion_delay``): its measurements are then never late
+and the current-time state is predicted over that horizon.
+
 Each entry names a registered source *type*: a converter from one ROS
 message type to core measurements (or IMU samples, or model updates), with
 its own parameters (``PARAMS``, declared once, core.params). The fusion node,
@@ -25,10 +31,12 @@ from collections import Counter
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 
-from ..core.params import STR, ConfigError, ParamSpec, check_all, suggest
+from ..core.params import FLOAT, STR, ConfigError, ParamSpec, check_all, nonneg, suggest
 
 QOS_CHOICES = ("reliable", "sensor_data")
-COMMON_FIELDS = ("type", "topic", "qos", "msg")
+COMMON_FIELDS = ("type", "topic", "qos", "msg", "delay_s")
+DELAY_PARAM = nonneg("delay_s", FLOAT, 0.0, "the source's known latency (s) from its epoch to its delivery: "
+                     "sizes the fusion horizon (the largest over the sources)")
 
 
 @dataclass(frozen=True)
@@ -50,6 +58,7 @@ class SourceSpec:
     topic: str
     qos: str = "reliable"
     params: dict = field(default_factory=dict)
+    delay_s: float = 0.0
 
 
 class SourceType:
@@ -209,7 +218,8 @@ def parse_sources(table, where: str = "filter.sources") -> list[SourceSpec]:
         params = {k: v for k, v in entry.items() if k not in COMMON_FIELDS}
         params = check_all(cls.PARAMS, params, f"{at}.")
         params["msg"] = msg
-        specs.append(SourceSpec(sid, typ, topic, qos, params))
+        delay = DELAY_PARAM.check(entry.get("delay_s", 0.0), f"{at}.")
+        specs.append(SourceSpec(sid, typ, topic, qos, params, delay))
     timed = [s.id for s in specs if REGISTRY[s.type].drives_time]
     if len(timed) != 1:
         raise ConfigError(f"{where}: exactly one source of type 'imu' is needed, got {timed or 'none'}")
@@ -234,6 +244,7 @@ def spec_to_params(specs: list[SourceSpec]) -> dict:
         out[f"sources.{s.id}.type"] = s.type
         out[f"sources.{s.id}.topic"] = s.topic
         out[f"sources.{s.id}.qos"] = s.qos
+        out[f"sources.{s.id}.delay_s"] = float(s.delay_s)
         for k, v in s.params.items():
             out[f"sources.{s.id}.{k}"] = list(v) if isinstance(v, tuple) else v
     return out
@@ -246,7 +257,7 @@ def table_from_params(get) -> dict:
     for sid in get("sources", []):
         typ = get(f"sources.{sid}.type", None)
         entry = {"type": typ, "topic": get(f"sources.{sid}.topic", None), "qos": get(f"sources.{sid}.qos", "reliable"),
-                 "msg": get(f"sources.{sid}.msg", None)}
+                 "msg": get(f"sources.{sid}.msg", None), "delay_s": get(f"sources.{sid}.delay_s", 0.0)}
         cls = REGISTRY.get(typ)
         if cls is not None:
             for p in cls.PARAMS:

@@ -4,6 +4,7 @@ messages in log order), so both run exactly the same code."""
 from __future__ import annotations
 
 from ..core.fusion import FusionEngine, Solution
+from ..core.params import ConfigError
 from .base import SourceType, make_sources, parse_sources
 
 
@@ -11,6 +12,14 @@ class SourceRouter:
     def __init__(self, engine: FusionEngine, table: dict):
         self.engine = engine
         self.specs = parse_sources(table)
+        # the fusion horizon: the largest declared source delay (or the configured one)
+        for s in self.specs:
+            if s.delay_s > engine.cfg.output_delay_s:
+                raise ConfigError(f"filter.sources.{s.id}.delay_s: {s.delay_s:g} s is beyond filter.config."
+                                  f"output_delay_s ({engine.cfg.output_delay_s:g} s), the record's horizon")
+        delay = max([engine.cfg.fusion_delay_s] + [s.delay_s for s in self.specs])
+        if delay != engine.fusion_delay_s:
+            engine.set_fusion_delay(delay)
         self.sources: list[SourceType] = make_sources(self.specs, engine.cfg)
         self.routes: dict[str, list] = {}         # topic -> [(source, role)]: sources may share a topic
         for src in self.sources:                  # (e.g. two gnss_raw sources and their gnss/ephemeris)

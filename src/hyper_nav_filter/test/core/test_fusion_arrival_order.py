@@ -13,7 +13,10 @@ up to the reprocess window behind it, in the ENU and LCI frames:
    (``*_after_release``, ``rejected_*_stale``);
 3. a replay of the same records in any order, given the live side's
    late-input reports (``replay_order``), reproduces the arrival-order run
-   bit for bit: live == offline whatever the arrival order was.
+   bit for bit: live == offline whatever the arrival order was, for the
+   released solutions and for the current-time stream (one state per IMU
+   sample, issue 35: the engine runs with a fusion horizon here, so the
+   output predictor carries it).
 
 Boundary cases: a measurement exactly at an IMU stamp (before or after that
 sample arrives), exactly at the window edge (stale) and just after it, after
@@ -47,10 +50,12 @@ from hyper_nav_sim.offline_fly import gnss_measurements
 
 IMU = "imu"
 DELAY_S, WINDOW_S = 0.6, 1.2            # output delay and reprocess window of these tests
+FUSION_DELAY_S = 0.1                    # the fusion horizon (current-time states predicted over it)
 
 
 def _cfg(cfg: FilterConfig, **kw) -> FilterConfig:
-    return FilterConfig.from_dict({**cfg.as_dict(), "output_delay_s": DELAY_S, "reprocess_window_s": WINDOW_S, **kw})
+    return FilterConfig.from_dict({**cfg.as_dict(), "output_delay_s": DELAY_S, "reprocess_window_s": WINDOW_S,
+                                   "fusion_delay_s": FUSION_DELAY_S, **kw})
 
 
 @functools.lru_cache(maxsize=None)
@@ -139,6 +144,7 @@ def fly(name: str, recs, late_tracker: LateInputTracker | None = None):
     stamp of an event applied after its release or rejected."""
     cfg, init, imu, _ = world(name)
     eng = FusionEngine(cfg, init)
+    eng.current_log = []                  # the current-time stream
     sols, reports, affected = [], [], math.inf
     for topic, m in recs:
         e = m.payload
@@ -226,6 +232,12 @@ def test_up_to_the_window_only_what_late_events_reach_differs_and_replay_reprodu
     assert ro.missing == () and ro.placed == len(reports)
     replay, eng2, _, _ = fly(name, ro.records)
     assert_all_same(replay, live)
+    # the current-time stream too: one state per IMU sample, bit for bit
+    cur, cur2 = eng.current_log, eng2.current_log
+    assert len(cur) == len(cur2) == len(world(name)[2].t_s)
+    bad = [a.t_s for a, b in zip(cur, cur2) if not (a.t_s == b.t_s and np.array_equal(a.pred.x_nav, b.pred.x_nav)
+                                                    and np.array_equal(a.pred.values, b.pred.values))]
+    assert not bad, f"{len(bad)} current-time states differ, first at t = {bad[0]:.3f} s"
     # every counter but the re-processing effort (the replay need not re-process what came early)
     assert {k: v for k, v in eng2.counters.items() if k != "epochs_reprocessed"} == \
         {k: v for k, v in eng.counters.items() if k != "epochs_reprocessed"}

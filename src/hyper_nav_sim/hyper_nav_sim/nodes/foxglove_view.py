@@ -41,7 +41,8 @@ class FoxgloveViewNode(Node):
         latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(NavState, "truth/state", self.sink.on_truth, qos)
-        self.create_subscription(NavState, "nav/state", self.sink.on_nav, qos)
+        self.create_subscription(NavState, "nav/state", self.sink.on_nav, qos)              # current time
+        self.create_subscription(NavState, "nav/delayed/state", self.sink.on_nav_delayed, qos)  # the record
         self.create_subscription(NavSatFix, "gnss/fix", self.sink.on_gnss, qos)
         self.create_subscription(TFMessage, "/tf", self.sink.on_tf, qos)
         self.create_subscription(TFMessage, "/tf_static", self.sink.on_tf, latched)

@@ -15,7 +15,7 @@ Messages are released ``gnss.latency_s`` after their epoch (receiver
 latency); header.stamp stays the measurement epoch.
 
 Aiding loop (issue 23; ``gnss.raw.tracking.aiding_source: nav_state``, off by
-default): the node subscribes ``nav/state`` (hyper_nav_msgs/NavState,
+default): the node subscribes ``nav/delayed/state`` (hyper_nav_msgs/NavState,
 remappable), hands each message to ``core.gnss.aiding.AidingInput`` (refused
 and counted when non-finite, its covariance not PSD or out of order) and
 computes each receiver epoch when it is released, with the state it holds then
@@ -93,7 +93,7 @@ class GnssNode(ClockDrivenSensor):
         self._eph_cls, self._raw_cls = GnssEphemeris, GnssMeasurements
         self._published_eph = set()
         self.fixes, self.pos_cov, self.vel_cov = None, [], []
-        self.create_subscription(NavState, "nav/state", self._on_nav_state, self.qos)
+        self.create_subscription(NavState, "nav/delayed/state", self._on_nav_state, self.qos)
         self.schedule(t, self.pub_raw, self._make_raw)
         self.scheduled["gnss/fix"] = self.scheduled["gnss/vel"] = 0
         self.published.setdefault("gnss/fix", 0)

@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import earth, mechanization
 from ..fast import enu as fast_enu
+from ..fast import nominal as fast_nominal
 from ..attitude import attitude_error_n_rad, rotvec_to_C, skew
 from ..nav_state import NavState
 
@@ -87,6 +88,16 @@ class EnuFrame:
                                    p.dvel_b_mps, float(p.dt_s), prev is not None, *sm.fast_args, out)
         return out, P1, Phi
 
+    def mechanize_nominal(self, x, t_s, vals, imu, prev, sm) -> np.ndarray:
+        """The nominal half of ``fast_predict`` (no covariance): the raw
+        increments corrected with the block values ``vals`` and mechanized
+        (core.fast.nominal), for the output predictor."""
+        out = np.empty(NOMINAL_SIZE)
+        p = imu if prev is None else prev
+        fast_nominal.enu_step(x, vals, imu.dtheta_b_rad, imu.dvel_b_mps, float(imu.dt_s), p.dtheta_b_rad,
+                              p.dvel_b_mps, float(p.dt_s), prev is not None, *sm.roles_args, out)
+        return out
+
     # ---- error model ------------------------------------------------------------------
     def error_dynamics(self, x, t_s, f_b_mps2, omega_ib_b_radps):
         """(F9, C_b_n): the 9 x 9 att/vel/pos block of F and the body-to-frame rotation."""
@@ -134,6 +145,15 @@ class EnuFrame:
         dp = earth.position_error_enu_m(x_est[X_LAT], x_est[X_LON], x_est[X_ALT], x_true[X_LAT], x_true[X_LON],
                                         x_true[X_ALT])
         return np.concatenate([phi, x_est[X_VEL] - x_true[X_VEL], dp])
+
+    def feed_back(self, x, x_then, x_anchor, S, S_then, gains):
+        """The complementary output predictor's correction (core.fast.nominal.enu_feed_back)."""
+        return fast_nominal.enu_feed_back(x, x_then, x_anchor, S, S_then, *gains)
+
+    def small_difference(self, x_est, x_true) -> np.ndarray:
+        """``difference`` for small angles (the skew part of C_true C_est^T;
+        compiled, core.fast.nominal): the output predictor's feedback."""
+        return fast_nominal.enu_difference(x_est, x_true)
 
     def fast_inject(self, x, dx9) -> np.ndarray:
         """``inject`` in compiled form (core.fast.enu)."""

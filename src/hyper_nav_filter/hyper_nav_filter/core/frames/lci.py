@@ -34,6 +34,7 @@ from ..lci.frames import OMEGA_IE_RADPS, LaunchFrame
 from ..lci.gravity import gravity_gradient_a, make_gravity
 from ..lci.mechanization import increments_one_plus_previous
 from ..fast import lci as fast_lci
+from ..fast.predict import imu_terms as fast_predict_terms
 from ..nav_state import NavState
 
 X_R, X_V, X_C = slice(0, 3), slice(3, 6), slice(6, 15)
@@ -123,6 +124,18 @@ class LciFrame:
         out[X_C] = orthonormalize(C0 @ rotvec_to_C(inc.phi_b_rad)).ravel()
         return out
 
+    def mechanize_nominal(self, x, t_s, vals, imu, prev, sm) -> np.ndarray:
+        """The nominal half of ``fast_predict`` (no covariance), for the output
+        predictor: the raw increments corrected with the block values ``vals``
+        (the compiled correction) and ``mechanize``d."""
+        p = imu if prev is None else prev
+        th, v, th_p, v_p, _, _, _ = fast_predict_terms(imu.dtheta_b_rad, imu.dvel_b_mps, float(imu.dt_s),
+                                                       p.dtheta_b_rad, p.dvel_b_mps, float(p.dt_s), prev is not None,
+                                                       vals, *sm.roles_args)
+        if prev is None:
+            th_p = v_p = None
+        return self.mechanize(x, t_s, th, v, th_p, v_p, imu.dt_s)
+
     def bridge(self, x, t_s, omega_b, f_b, dt_s) -> np.ndarray:
         return self.mechanize(x, t_s, omega_b * dt_s, f_b * dt_s, None, None, dt_s)
 
@@ -151,6 +164,17 @@ class LciFrame:
         """The att/vel/pos error (estimate - truth) in LCI axes (inverse of ``inject``)."""
         phi = attitude_error_n_rad(x_est[X_C].reshape(3, 3), x_true[X_C].reshape(3, 3))
         return np.concatenate([phi, x_est[X_V] - x_true[X_V], x_est[X_R] - x_true[X_R]])
+
+    def feed_back(self, x, x_then, x_anchor, S, S_then, gains):
+        """The complementary output predictor's correction: gains * (the
+        difference at the anchor's stamp less what was fed back since) taken
+        off x; (x, S + c)."""
+        c = np.repeat(gains, 3) * (self.small_difference(x_then, x_anchor) - (S - S_then))
+        return self.fast_inject(x, c), S + c
+
+    def small_difference(self, x_est, x_true) -> np.ndarray:
+        """``difference`` (the output predictor's feedback; no compiled form here)."""
+        return self.difference(x_est, x_true)
 
     def fast_inject(self, x, dx9) -> np.ndarray:
         """``inject`` in compiled form (core.fast.lci)."""
