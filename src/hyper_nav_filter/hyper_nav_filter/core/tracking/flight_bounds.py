@@ -26,7 +26,8 @@ hand-over error. Three bounds, and what each bounds:
   contains the flight for every window length, so the bound holds on the fixed
   flight for every estimator unbiased over that family (the Cramer-Rao
   inequality; a biased estimator, e.g. one whose prior favours this maneuver,
-  can go below it). Shorter windows: a larger family, a larger bound.
+  can go below it, and on seed 002 every filter does: they all hold a prior on
+  the maneuver). Shorter windows: a larger family, a larger bound.
 
 All recursions are the Kalman filter's covariance recursion of the
 linearized model (Jacobians along the truth, the usual approximation), so on a
