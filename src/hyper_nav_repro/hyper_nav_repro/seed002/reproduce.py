@@ -418,7 +418,7 @@ def main(argv=None) -> int:
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers
     args = ap.parse_args(argv)
     nums = [int(s) for s in args.scenarios.split(",")]
-    runs, duration, timing, draws_s = args.runs, None, 300, None
+    runs, duration, timing, draws_s = args.runs, None, 300, 300.0
     if args.short:
         nums, runs, duration, timing, draws_s = [1], 3, 200.0, 0, 100.0
     name = args.lekf or tracker_config(load_scenario(SCENARIOS[nums[0]])).lekf_parameters
