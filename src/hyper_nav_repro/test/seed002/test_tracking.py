@@ -246,3 +246,49 @@ def test_reproduction_short_mode_runs(tmp_path):
     for ft in repro_seed002.ALL_FILTERS:
         r = res["filters"][ft]["rmse_mean"]
         assert r[0] < 3000.0 and r[3] < (200.0 if ft == "AUG-IMM" else 100.0), (ft, r)
+
+
+def test_committed_table_has_no_ratio_below_a_bound():
+    """Issue 40's goal on the committed results/seed002/table2.json: against
+    every column called a bound (the known-maneuver PCRB; bounds.IS_BOUND) no
+    filter's RMSE ratio is below 1 beyond the Monte Carlo's 95 % interval, on
+    the simulated world and the perfect model (measured: smallest 1.55
+    [1.36, 1.72], L-EKF S2 gamma); the random-walk PCRB and the unbiased-only
+    CRB are labelled as no bounds of these flights."""
+    from hyper_nav_repro.seed002 import bounds
+    table = _table2()
+    assert table["runs"] == 20 and not table["short"]
+    for num, res in table["scenarios"].items():
+        assert "NOT a bound" in res["bounds"]["what"]["random_walk"]
+        assert "NOT a bound" in res["bounds"]["what"]["windowed_flight"]
+        rows = [res["filters"][ft] for ft in repro_seed002.ALL_FILTERS]
+        rows += [res["perfect_model"][ft] for ft in repro_seed002.AUG_FILTERS]
+        for row in rows:
+            for key in bounds.BOUND_KEYS:
+                if "NOT" in bounds.IS_BOUND[key]:          # the references (random walk, unbiased-only CRB)
+                    continue
+                hi = np.asarray(row["ratios"][key]["ci95"][1])
+                assert np.all(hi >= 1.0), (num, key, row["ratios"][key])
+
+
+def test_random_walk_pcrb_holds_on_draws_from_its_walks():
+    """The unknown-maneuver PCRB where it must hold: 20 parameter paths drawn
+    from the AUG-IMM's random walks (glide / maneuver densities on scenario
+    1's mode sequence, first 300 s), flown by eq. 21, radar noise and
+    hand-over error; the AUG-IMM over them stays above the bound averaged over
+    the draws in every state, within the Monte Carlo's 95 % interval."""
+    from hyper_nav_filter.core.tracking import augmented as au
+    from hyper_nav_repro.seed002 import bounds
+    from hyper_nav_sim.core.scenario import load_scenario
+    from hyper_nav_sim.core.tracking_setup import initial_truth, scenario_track, tracker_config
+    sc = load_scenario(repro_seed002.SCENARIOS[1])
+    cfg = tracker_config(sc)
+    setup = au.AugmentedSetup.from_dict(sc.data["tracker_augmented"])
+    track = scenario_track(sc)
+    t = np.concatenate([[0.0], track.t_s])
+    x = np.vstack([initial_truth(sc)[None], track.x])
+    n = int(np.searchsorted(t, 300.0, side="right"))
+    par = au.equivalent_params(cfg.model, t, x)[:n]
+    high = au.maneuver_steps(par, 1.0, setup.maneuver_rate_per_s)
+    res = bounds.walk_draws(cfg, setup, t[:n], x[0], par, high, 20, np.random.default_rng(40))
+    assert np.all(np.asarray(res["ci95"][1]) >= 1.0), res

@@ -199,6 +199,27 @@ def _information_recursion(F, P0, R, Q, n):
     return out
 
 
+def bound_model(P0_kin: np.ndarray, noise: ManeuverNoise, dt: float, Q_kin: np.ndarray | None = None,
+                noise_high: ManeuverNoise | None = None, high_steps=None, n_steps: int | None = None):
+    """The prior P0 (9, 9) and the process noise Q (9, 9), or per step (N-1,
+    9, 9) with ``noise_high`` and ``high_steps``, of the unknown-maneuver PCRB
+    (``augmented_bound``), scaled units."""
+    P0 = np.zeros((N_AUG, N_AUG))
+    P0[:N_KIN, :N_KIN] = P0_kin[:N_KIN, :N_KIN]
+    P0[N_KIN:, N_KIN:] = np.diag((np.maximum(noise.init_sigma, 1e-300) / AUG_SCALE[N_KIN:]) ** 2)
+    Q = process_noise(noise, dt)
+    if Q_kin is not None:
+        Q[:N_KIN, :N_KIN] += Q_kin[:N_KIN, :N_KIN]
+    if not np.all(noise.init_sigma > 0):      # a parameter known: keep P0 invertible with a vanishing prior
+        P0[N_KIN:, N_KIN:] += np.diag(np.where(noise.init_sigma > 0, 0.0, 1e-24))
+    if noise_high is None:
+        return P0, Q
+    Qh = process_noise(noise_high, dt)
+    if Q_kin is not None:
+        Qh[:N_KIN, :N_KIN] += Q_kin[:N_KIN, :N_KIN]
+    return P0, np.where(np.asarray(high_steps, bool)[:, None, None], Qh, Q)
+
+
 def augmented_bound(F_aug: np.ndarray, P0_kin: np.ndarray, R: np.ndarray, noise: ManeuverNoise,
                     dt: float, Q_kin: np.ndarray | None = None, noise_high: ManeuverNoise | None = None,
                     high_steps=None) -> np.ndarray:
@@ -209,22 +230,13 @@ def augmented_bound(F_aug: np.ndarray, P0_kin: np.ndarray, R: np.ndarray, noise:
     ``high_steps`` (N-1,) bool, the steps flagged use noise_high's densities:
     the bound of the two-mode (glide / maneuver) model conditioned on the
     true mode sequence, a lower bound for any filter of that model (a filter
-    told the modes can only do better; Bessell et al. 2003)."""
-    P0 = np.zeros((N_AUG, N_AUG))
-    P0[:N_KIN, :N_KIN] = P0_kin[:N_KIN, :N_KIN]
-    P0[N_KIN:, N_KIN:] = np.diag((np.maximum(noise.init_sigma, 1e-300) / AUG_SCALE[N_KIN:]) ** 2)
-    Q = process_noise(noise, dt)
-    if Q_kin is not None:
-        Q[:N_KIN, :N_KIN] += Q_kin[:N_KIN, :N_KIN]
-    if not np.all(noise.init_sigma > 0):      # a parameter known: keep P0 invertible with a vanishing prior
-        P0[N_KIN:, N_KIN:] += np.diag(np.where(noise.init_sigma > 0, 0.0, 1e-24))
-    if noise_high is None:
-        return _information_recursion(F_aug, P0, R, Q, N_AUG)
-    Qh = process_noise(noise_high, dt)
-    if Q_kin is not None:
-        Qh[:N_KIN, :N_KIN] += Q_kin[:N_KIN, :N_KIN]
-    Qs = np.where(np.asarray(high_steps, bool)[:, None, None], Qh, Q)
-    return _information_recursion(F_aug, P0, R, Qs, N_AUG)
+    told the modes can only do better; Bessell et al. 2003).
+
+    It bounds the MSE averaged over parameter paths *drawn from these random
+    walks*; on one fixed path (a scenario's flight) it is not a bound
+    (``flight_bounds``, issue 40: filters go below it there)."""
+    P0, Q = bound_model(P0_kin, noise, dt, Q_kin, noise_high, high_steps)
+    return _information_recursion(F_aug, P0, R, Q, N_AUG)
 
 
 def maneuver_steps(params_true, dt: float, rate_per_s: float = 0.01) -> np.ndarray:
