@@ -21,7 +21,7 @@ from .attitude import skew
 from .nav_state import NavState
 from .state_layout import StateLayout
 
-C_MPS = 299792458.0
+from .gnss.constants import C_MPS
 
 
 def sagnac_rotate(r_sat_e_m: np.ndarray, transit_s: np.ndarray) -> np.ndarray:

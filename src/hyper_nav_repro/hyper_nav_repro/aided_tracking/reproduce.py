@@ -44,7 +44,7 @@ import time
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-C_MPS = 299792458.0
+from hyper_nav_filter.core.gnss.constants import C_MPS
 F_L1_HZ = 1575.42e6
 LAMBDA_M = C_MPS / F_L1_HZ
 G0 = 9.80665

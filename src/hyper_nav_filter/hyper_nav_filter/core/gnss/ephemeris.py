@@ -34,7 +34,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-C_MPS = 299792458.0
+from .constants import C_MPS
 SECONDS_PER_WEEK = 604800.0
 BDT_WEEK_OFFSET = 1356               # BDT week = GPS week - 1356
 BDT_MINUS_GPST_S = -14.0             # BDT = GPST - 14 s

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-C_MPS = 299792458.0
+from .constants import C_MPS
 F_L1_HZ = 1575.42e6
 F_B1I_HZ = 1561.098e6
 CARRIER_HZ = {"G": F_L1_HZ, "C": F_B1I_HZ}     # GPS L1 C/A, BDS B1I

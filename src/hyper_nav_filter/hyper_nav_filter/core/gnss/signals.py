@@ -18,7 +18,7 @@ RINEX codes in :data:`UBX_SIGNALS`.
 """
 from __future__ import annotations
 
-C_MPS = 299792458.0
+from .constants import C_MPS
 
 # carrier frequency [Hz] by (system, RINEX band digit)
 _F_L1, _F_L2, _F_L5 = 1575.42e6, 1227.60e6, 1176.45e6

@@ -32,7 +32,7 @@ from .. import earth
 from .raim import global_statistic, standardized_residuals, threshold
 from .receiver_model import ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges
 
-C_MPS = 299792458.0
+from .constants import C_MPS
 
 SYSTEM_ORDER = ("G", "E", "C", "J")
 BATCH_EPOCHS = 600              # epochs whose satellite orbits are evaluated together (:func:`states_batch`)

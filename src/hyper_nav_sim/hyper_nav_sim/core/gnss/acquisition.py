@@ -34,7 +34,7 @@ import math
 import numpy as np
 from scipy.stats import chi2, ncx2
 
-C_MPS = 299792458.0
+from hyper_nav_filter.core.gnss.constants import C_MPS
 F_L1_HZ = 1575.42e6
 CHIP_LENGTH_CA_M = C_MPS / 1.023e6
 CODE_CHIPS_CA = 1023

@@ -35,6 +35,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from hyper_nav_filter.core import earth
+from hyper_nav_filter.core.gnss.constants import C_MPS
 
 OMEGA_IE_RADPS = 7.292115e-5
 
@@ -138,7 +139,7 @@ class AidingInput:
 def doppler_residual_hz(pred: AidingPrediction, u_e, v_a_e_mps, clk_drift_err_mps, carrier_hz):
     """Doppler the aided loop must follow [Hz] per satellite: (u . (v_a - v_hat)
     - clock-drift error) / lambda (module docstring); u_e (n, 3) antenna to satellite."""
-    lam = 299792458.0 / np.asarray(carrier_hz, float)
+    lam = C_MPS / np.asarray(carrier_hz, float)
     return (np.asarray(u_e, float) @ (np.asarray(v_a_e_mps, float) - pred.v_e_mps) - clk_drift_err_mps) / lam
 
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from hyper_nav_filter.core.gnss.constants import C_MPS
 
 
 @dataclass
@@ -54,7 +55,7 @@ class LockConfig:
 def vehicle_doppler_hz(u_los_e, v_rx_e_mps, carrier_hz):
     """Vehicle-induced Doppler -(-u.v)/lambda = u.v_rx/lambda [Hz] (u: unit
     receiver->satellite vectors (N,3); approaching the satellite = positive)."""
-    return np.einsum("ki,i->k", np.atleast_2d(u_los_e), np.asarray(v_rx_e_mps, float)) * np.asarray(carrier_hz) / 299792458.0
+    return np.einsum("ki,i->k", np.atleast_2d(u_los_e), np.asarray(v_rx_e_mps, float)) * np.asarray(carrier_hz) / C_MPS
 
 
 class LockModel:

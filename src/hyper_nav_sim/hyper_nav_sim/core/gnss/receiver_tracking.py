@@ -42,6 +42,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from hyper_nav_filter.core.gnss.constants import C_MPS
+
 from . import acquisition as acq
 from .signal_env import SignalEnvironment
 from .tracking import (MODE_FLL, MODE_PLL, P_ACQ_CBIN, P_ACQ_DBIN, S_ACC, S_BI, S_BQ, S_BW, S_CELL, S_CN0E, S_COFF,
@@ -189,7 +191,7 @@ class ReceiverTracking:
         cn0 = c.signal.cn0_dbhz(t_s, el_rad, az_rad, C_b_n, alt_m, mach)
         f = np.asarray(doppler_hz, float)
         fd = np.asarray(doppler_rate_hzps, float)
-        lam = 299792458.0 / np.asarray(carrier_hz, float) * np.ones(len(sat_ids))
+        lam = C_MPS / np.asarray(carrier_hz, float) * np.ones(len(sat_ids))
         f_pred = None
         if self.external:
             if aid is not None:

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 BOLTZMANN_DBW_PER_K_HZ = -228.6              # 10 log10(1.380649e-23)
-C_MPS = 299792458.0
+from hyper_nav_filter.core.gnss.constants import C_MPS
 EPS0 = 8.8541878128e-12
 E_CHARGE_C = 1.602176634e-19
 M_E_KG = 9.1093837015e-31

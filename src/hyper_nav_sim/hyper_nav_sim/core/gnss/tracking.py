@@ -69,7 +69,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-C_MPS = 299792458.0
+from hyper_nav_filter.core.gnss.constants import C_MPS
 F_L1_HZ = 1575.42e6
 CHIP_RATE_CA_HZ = 1.023e6
 DT_MS_S = 1e-3
