@@ -78,8 +78,126 @@ def couple(F, G, C, w, f, wdot, Katt, Kvel, used_att, used_vel, GattM, GvelM):
     G[3:6, :] += mm3n(C, GvelM)
 
 
+NAV = 9            # att/vel/pos rows of the error state: the blocks' rows never depend on them
+
+
+@njit(cache=True)
+def _f22_diagonal(F):
+    """True when the blocks' part of F (rows and columns NAV:) is diagonal
+    (biases and scale factors: Gauss-Markov or random constants; a clock or a
+    lever-arm block is not) and the blocks' rows do not depend on att/vel/pos."""
+    n = F.shape[0]
+    for i in range(NAV, n):
+        for j in range(n):
+            if i != j and F[i, j] != 0.0:
+                return False
+    return True
+
+
 @njit(cache=True)
 def propagate_covariance(F, G, qc, P, dt, exact):
+    """``propagate_covariance_dense``, by the blocks of F where they allow
+    (``propagate_covariance_blocks``: the same second-order transition, the
+    same P', about 5x fewer operations); an exact transition (``exact``) or
+    non-diagonal block dynamics (a clock, lever-arm modes) go dense."""
+    if exact or F.shape[0] <= NAV or not _f22_diagonal(F):
+        return propagate_covariance_dense(F, G, qc, P, dt, exact)
+    return propagate_covariance_blocks(F, G, qc, P, dt)
+
+
+@njit(cache=True)
+def propagate_covariance_blocks(F, G, qc, P, dt):
+    """``propagate_covariance_dense`` (not exact) by the structure of the
+    error-state matrix: F = [[F11, F12], [0, D]] with F11 the 9 x 9 att/vel/pos
+    core, F12 the blocks' couplings into it and D diagonal (the blocks'
+    self-dynamics; the blocks' rows never depend on att/vel/pos). Then
+
+        Phi = I + F dt + (F dt)^2 / 2 = [[A, B], [0, E]],  A = I + F11 dt + (F11 dt)^2 / 2,
+        B = F12 dt + (F11 F12 + F12 D) dt^2 / 2,  E = I + D dt + (D dt)^2 / 2 (diagonal),
+
+    and P' = Phi (P + Qh) Phi^T + Qh is formed block by block: with M = P + Qh,
+    P'11 = (A M11 + B M21) A^T + (A M12 + B M22) B^T, P'12 = (A M12 + B M22) E,
+    P'22 = E M22 E, each computed once (the upper triangle, mirrored). Qh =
+    G Qc G^T dt / 2 sums each noise column's outer product over its non-zero
+    rows. Same transition and formula as the dense form, ~6,000 instead of
+    ~28,000 multiply-adds for 21 states; the two agree to rounding (measured:
+    ``test_fast_path.test_covariance_blocks_match_dense``). Returns (P', Phi)."""
+    n = F.shape[0]
+    k = n - NAV
+    h = 0.5 * dt * dt
+    # Phi by blocks (products in axpy order, innermost loop over columns: vectorised without reassociation)
+    Phi = np.zeros((n, n))
+    S = np.zeros((NAV, n))                  # F11 [F11 F12]
+    for i in range(NAV):
+        for l in range(NAV):
+            a = F[i, l]
+            if a != 0.0:
+                for j in range(n):
+                    S[i, j] += a * F[l, j]
+    e = np.empty(k)
+    for j in range(k):
+        d = F[NAV + j, NAV + j]
+        e[j] = 1.0 + d * dt + h * d * d
+        for i in range(NAV):
+            S[i, NAV + j] += F[i, NAV + j] * d
+        Phi[NAV + j, NAV + j] = e[j]
+    for i in range(NAV):
+        for j in range(n):
+            Phi[i, j] = F[i, j] * dt + h * S[i, j]
+        Phi[i, i] += 1.0
+    # Qh = G Qc G^T dt / 2 over each column's non-zero rows
+    m = G.shape[1]
+    Qh = np.zeros((n, n))
+    rows = np.empty(n, np.int64)
+    for c in range(m):
+        q = qc[c] * 0.5 * dt
+        if q == 0.0:
+            continue
+        nr = 0
+        for r in range(n):
+            if G[r, c] != 0.0:
+                rows[nr] = r
+                nr += 1
+        for a in range(nr):
+            ra = rows[a]
+            ga = G[ra, c] * q
+            for b in range(nr):
+                rb = rows[b]
+                Qh[ra, rb] += ga * G[rb, c]
+    M = P + Qh
+    # T = [A B] M (the first NAV rows of Phi M)
+    T = np.zeros((NAV, n))
+    for i in range(NAV):
+        for l in range(n):
+            a = Phi[i, l]
+            if a != 0.0:
+                for j in range(n):
+                    T[i, j] += a * M[l, j]
+    # P'11 = T [A B]^T: U = T Phi^T by rows of Phi (columns of the product), axpy over i
+    P1 = np.empty((n, n))
+    U = np.zeros((NAV, NAV))
+    for jj in range(NAV):
+        for l in range(n):
+            a = Phi[jj, l]
+            if a != 0.0:
+                for i in range(NAV):
+                    U[i, jj] += T[i, l] * a
+    for i in range(NAV):
+        for j in range(NAV):
+            P1[i, j] = 0.5 * (U[i, j] + U[j, i]) + Qh[i, j]
+        for j in range(k):
+            v = T[i, NAV + j] * e[j] + Qh[i, NAV + j]
+            P1[i, NAV + j] = v
+            P1[NAV + j, i] = v
+    for i in range(k):
+        for j in range(k):
+            P1[NAV + i, NAV + j] = e[i] * (0.5 * (M[NAV + i, NAV + j] + M[NAV + j, NAV + i])) * e[j] \
+                + Qh[NAV + i, NAV + j]
+    return P1, Phi
+
+
+@njit(cache=True)
+def propagate_covariance_dense(F, G, qc, P, dt, exact):
     """Phi = I + F dt + (F dt)^2 / 2 (or expm) and
     P' = Phi (P + Qh) Phi^T + Qh with Qh = G Qc G^T dt / 2, i.e. the
     trapezoidal Q = (Phi GQG Phi^T + GQG) dt / 2 of ``system_model.discretize``
