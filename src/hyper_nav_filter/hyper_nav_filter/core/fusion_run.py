@@ -42,7 +42,7 @@ from .frames.enu import EnuFrame
 from .fusion import _EPS_S, FusionEngine, _Epoch
 from .nav_state import ImuSample
 
-MIN_RUN = 8          # shorter runs go sample by sample (the compiled call's fixed cost is ~2 epochs')
+MIN_RUN = 2          # a single sample goes through add_imu_rates
 
 
 def static_ok(eng: FusionEngine) -> bool:
@@ -97,19 +97,20 @@ def add_imu_rates_run(eng: FusionEngine, stamps: np.ndarray, rates: np.ndarray, 
         pdt, has_prev = float(prev.dt_s), True
     m = len(rows)
     n = kf.P.shape[0]
-    X = np.empty((m, len(kf.x_nav)))
-    PS = np.empty((m, n, n))
-    DTH, DV = np.empty((m, 3)), np.empty((m, 3))
-    T, DT = np.empty(m), np.empty(m)
+    nx = len(kf.x_nav)
+    E = np.empty((m, nx + 8))                  # rows stay referenced by the epochs (views)
+    PS = getattr(eng, "_run_P_buffer", None)   # copied out per epoch: one buffer per engine, reused
+    if PS is None or PS.shape[0] < m or PS.shape[1] != n:
+        PS = np.empty((max(m, 256), n, n))
+        eng._run_P_buffer = PS
     k, _, Phi = enu_run.predict_run(kf.x_nav, kf.values, kf.P, float(t0), pdth, pdv, pdt, has_prev, stamps, rates,
-                                    forces, rows, t_event, float(kf.cfg.imu_gap_s),
-                                    *kf.sys.fast_args, X, PS, DTH, DV, T, DT)
+                                    forces, rows, t_event, float(kf.cfg.imu_gap_s), *kf.sys.fast_args, E, PS)
     if k:
-        _store(eng, k, X, PS, DTH, DV, T, DT, Phi)
+        _store(eng, k, E, PS, nx, Phi)
     return k
 
 
-def _store(eng: FusionEngine, k: int, X, PS, DTH, DV, T, DT, Phi) -> None:
+def _store(eng: FusionEngine, k: int, E, PS, nx: int, Phi) -> None:
     """The run's first k epochs into the engine as ``_process_epoch`` leaves them."""
     kf = eng.kf
     epochs, times = eng._epochs, eng._times
@@ -118,7 +119,8 @@ def _store(eng: FusionEngine, k: int, X, PS, DTH, DV, T, DT, Phi) -> None:
     new_imu, new_snap, new_ep = tuple.__new__, tuple.__new__, _Epoch
     on_epoch = getattr(eng, "on_epoch", None)
     imu = snap = None
-    for j, (t, dt) in enumerate(zip(T[:k].tolist(), DT[:k].tolist())):
+    X, DTH, DV = E[:k, :nx], E[:k, nx:nx + 3], E[:k, nx + 3:nx + 6]
+    for j, (t, dt) in enumerate(zip(E[:k, nx + 6].tolist(), E[:k, nx + 7].tolist())):
         imu = new_imu(ImuSample, (t, dt, DTH[j], DV[j], None))
         snap = new_snap(FilterSnapshot, (t, X[j], vals, PS[j].copy(), imu, cfg, nu, nr, nis, stats))
         epochs.append(new_ep(imu, snap, last_accept))

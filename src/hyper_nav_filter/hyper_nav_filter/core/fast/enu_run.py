@@ -19,20 +19,25 @@ EPS_S = 1e-9                # fusion._EPS_S
 STOP_END, STOP_EVENT, STOP_INVALID, STOP_GAP = 0, 1, 2, 3
 
 
+def columns(nx: int) -> dict:
+    """Column slices of a run's epoch rows (``predict_run``'s E) for a nominal vector of nx."""
+    return {"x": slice(0, nx), "dth": slice(nx, nx + 3), "dv": slice(nx + 3, nx + 6), "t": nx + 6, "dt": nx + 7}
+
+
 @njit(cache=True)
 def predict_run(x0, vals, P0, t0, pdth, pdv, pdt, has_prev, stamps, rates, forces, rows, t_event, gap_s,
-                gb, ab, sg, sa, A, Katt, Kvel, used_att, used_vel, Gc, GattM, GvelM, qc, exact,
-                X, PS, DTH, DV, T, DT):
+                gb, ab, sg, sa, A, Katt, Kvel, used_att, used_vel, Gc, GattM, GvelM, qc, exact, E, PS):
     """Samples ``rows`` of (stamps, rates, forces) (mean body rate and specific
     force over the interval ending at the stamp, as ``add_imu_rates`` takes
     them) from the filter state (x0, vals, P0) at t0, whose previous interval
     is (pdth, pdv, pdt) when ``has_prev``. Sample j is taken while its stamp is
     finite and after the latest epoch, its rates finite, its interval at most
     ``gap_s`` and an event at ``t_event`` does not fall in it (stamp + EPS_S <
-    t_event); its epoch goes to X[j] (nominal), PS[j] (P), DTH[j], DV[j]
-    (increments rate * dt), T[j], DT[j]. Returns (samples taken, why the run
-    stopped, Phi of the last step)."""
+    t_event); its epoch goes to row j of E (``columns``: nominal vector,
+    increments rate * dt, stamp, interval) and PS[j] (P). Returns (samples
+    taken, why the run stopped, Phi of the last step)."""
     n = PS.shape[1]
+    nx = x0.shape[0]
     x = x0
     P = P0
     t_prev = t0
@@ -60,13 +65,14 @@ def predict_run(x0, vals, P0, t0, pdth, pdv, pdt, has_prev, stamps, rates, force
             dv[a] = forces[r, a] * dt
         P, Phi = predict(x, vals, P, dth, dv, dt, pdth, pdv, pdt, has_prev, gb, ab, sg, sa, A, Katt, Kvel,
                          used_att, used_vel, Gc, GattM, GvelM, qc, exact, out)
-        X[j] = out
-        x = X[j]
+        row = E[j]
+        row[:nx] = out
+        row[nx:nx + 3] = dth
+        row[nx + 3:nx + 6] = dv
+        row[nx + 6] = t
+        row[nx + 7] = dt
         PS[j] = P
-        DTH[j] = dth
-        DV[j] = dv
-        T[j] = t
-        DT[j] = dt
-        pdth, pdv, pdt, has_prev = DTH[j], DV[j], dt, True
+        x = row[:nx]
+        pdth, pdv, pdt, has_prev = row[nx:nx + 3], row[nx + 3:nx + 6], dt, True
         t_prev = t
     return rows.shape[0], STOP_END, Phi
