@@ -57,25 +57,56 @@ def _basis(k, w, f, wdot):
     return mm3(W, W)
 
 
+@njit(cache=True, inline="always")
+def _basis_into(k, w, f, wdot, out):
+    """``_basis`` into a 3 x 3 work array (the same entries)."""
+    if k == 0 or k == 1 or k == 2:
+        for i in range(3):
+            for j in range(3):
+                out[i, j] = 0.0
+        for i in range(3):
+            out[i, i] = 1.0 if k == 0 else (w[i] if k == 1 else f[i])
+    elif k == 3 or k == 4:
+        v = w if k == 3 else wdot
+        out[0, 0], out[0, 1], out[0, 2] = 0.0, -v[2], v[1]
+        out[1, 0], out[1, 1], out[1, 2] = v[2], 0.0, -v[0]
+        out[2, 0], out[2, 1], out[2, 2] = -v[1], v[0], 0.0
+    else:
+        W = skew(w)
+        out[:, :] = mm3(W, W)
+
+
 @njit(cache=True)
 def couple(F, G, C, w, f, wdot, Katt, Kvel, used_att, used_vel, GattM, GvelM):
     """Add the blocks' body couplings C K(w, f, wdot) to the attitude and
     velocity rows of F and the body noises C M to the rows of G (only the
-    bases some block uses are formed)."""
+    bases some block uses are formed; the sums in the order of ``mm3n``,
+    into work arrays)."""
     n = F.shape[0]
+    bas = np.empty((3, 3))
+    B = np.empty((3, n))
     for rows in (0, 3):
         K = Katt if rows == 0 else Kvel
         used = used_att if rows == 0 else used_vel
-        B = np.zeros((3, n))
+        B[:, :] = 0.0
         any_term = False
         for k in range(6):
             if used[k]:
-                B += mm3n(_basis(k, w, f, wdot), K[k])
+                _basis_into(k, w, f, wdot, bas)
+                Kk = K[k]
+                for i in range(3):
+                    for j in range(n):
+                        B[i, j] += bas[i, 0] * Kk[0, j] + bas[i, 1] * Kk[1, j] + bas[i, 2] * Kk[2, j]
                 any_term = True
         if any_term:
-            F[rows:rows + 3, :] += mm3n(C, B)
-    G[0:3, :] += mm3n(C, GattM)
-    G[3:6, :] += mm3n(C, GvelM)
+            for i in range(3):
+                for j in range(n):
+                    F[rows + i, j] += C[i, 0] * B[0, j] + C[i, 1] * B[1, j] + C[i, 2] * B[2, j]
+    m = G.shape[1]
+    for i in range(3):
+        for j in range(m):
+            G[i, j] += C[i, 0] * GattM[0, j] + C[i, 1] * GattM[1, j] + C[i, 2] * GattM[2, j]
+            G[3 + i, j] += C[i, 0] * GvelM[0, j] + C[i, 1] * GvelM[1, j] + C[i, 2] * GvelM[2, j]
 
 
 NAV = 9            # att/vel/pos rows of the error state: the blocks' rows never depend on them
@@ -214,16 +245,45 @@ def propagate_covariance_dense(F, G, qc, P, dt, exact):
     return 0.5 * (P1 + P1.T), Phi
 
 
+@njit(cache=True, inline="always")
+def _corrected_into(src, dt, vals, gb, ab, sg, sa, is_gyro, out):
+    """``corrected`` of one vector (gyro: biases gb, scales sg; accel: ab, sa)
+    into ``out``, element by element in the same order of operations."""
+    for a in range(3):
+        out[a] = src[a]
+    if is_gyro:
+        for i in gb:
+            for a in range(3):
+                out[a] = out[a] - vals[i + a] * dt
+        for i in sg:
+            for a in range(3):
+                out[a] = out[a] / (1.0 + vals[i + a])
+    else:
+        for i in ab:
+            for a in range(3):
+                out[a] = out[a] - vals[i + a] * dt
+        for i in sa:
+            for a in range(3):
+                out[a] = out[a] / (1.0 + vals[i + a])
+
+
 @njit(cache=True)
 def imu_terms(dth, dv, dt, pdth, pdv, pdt, has_prev, vals, gb, ab, sg, sa):
     """The corrected increments of this and the previous interval (zeros at
     the first step), the body rate, specific force and angular acceleration
-    of this interval (zero acceleration at the first step)."""
-    th, v = corrected(dth, dv, dt, vals, gb, ab, sg, sa)
+    of this interval (zero acceleration at the first step). (``corrected``
+    element by element: the same numbers, a seventh of the allocations.)"""
+    th, v = np.empty(3), np.empty(3)
+    th_p, v_p = np.zeros(3), np.zeros(3)
+    w, f, wdot = np.empty(3), np.empty(3), np.zeros(3)
+    _corrected_into(dth, dt, vals, gb, ab, sg, sa, True, th)
+    _corrected_into(dv, dt, vals, gb, ab, sg, sa, False, v)
+    for a in range(3):
+        w[a] = th[a] / dt
+        f[a] = v[a] / dt
     if has_prev:
-        th_p, v_p = corrected(pdth, pdv, pdt, vals, gb, ab, sg, sa)
-        wdot = (th / dt - th_p / pdt) / dt
-    else:
-        th_p, v_p = np.zeros(3), np.zeros(3)
-        wdot = np.zeros(3)
-    return th, v, th_p, v_p, th / dt, v / dt, wdot
+        _corrected_into(pdth, pdt, vals, gb, ab, sg, sa, True, th_p)
+        _corrected_into(pdv, pdt, vals, gb, ab, sg, sa, False, v_p)
+        for a in range(3):
+            wdot[a] = (th[a] / dt - th_p[a] / pdt) / dt
+    return th, v, th_p, v_p, w, f, wdot
