@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from .. import earth
-from .linalg import cross, mm3, mv3, orthonormalize, rotvec_to_C, skew
+from .linalg import mm3, orthonormalize, rotvec_to_C
 from .predict import couple, imu_terms, propagate_covariance
 
 A_M, E2, F_WGS, W_IE = earth.A_M, earth.E2, earth.F, earth.OMEGA_IE_RADPS

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .linalg import expm_taylor, mm3, mm3n, skew
+from .linalg import expm_taylor, mm3, skew
 
 
 @njit(cache=True)
