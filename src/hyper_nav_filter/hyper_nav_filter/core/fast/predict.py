@@ -189,12 +189,15 @@ def propagate_covariance_blocks(F, G, qc, P, dt):
             if G[r, c] != 0.0:
                 rows[nr] = r
                 nr += 1
-        for a in range(nr):
+        for a in range(nr):                 # each pair once: Qh exactly symmetric
             ra = rows[a]
             ga = G[ra, c] * q
-            for b in range(nr):
+            Qh[ra, ra] += ga * G[ra, c]
+            for b in range(a + 1, nr):
                 rb = rows[b]
-                Qh[ra, rb] += ga * G[rb, c]
+                v = ga * G[rb, c]
+                Qh[ra, rb] += v
+                Qh[rb, ra] += v
     M = P + Qh
     # T = [A B] M (the first NAV rows of Phi M)
     T = np.zeros((NAV, n))
@@ -214,16 +217,19 @@ def propagate_covariance_blocks(F, G, qc, P, dt):
                 for i in range(NAV):
                     U[i, jj] += T[i, l] * a
     for i in range(NAV):
-        for j in range(NAV):
-            P1[i, j] = 0.5 * (U[i, j] + U[j, i]) + Qh[i, j]
+        for j in range(i, NAV):             # each symmetric pair once: P' exactly symmetric
+            v = 0.5 * (U[i, j] + U[j, i]) + Qh[i, j]
+            P1[i, j] = v
+            P1[j, i] = v
         for j in range(k):
             v = T[i, NAV + j] * e[j] + Qh[i, NAV + j]
             P1[i, NAV + j] = v
             P1[NAV + j, i] = v
     for i in range(k):
-        for j in range(k):
-            P1[NAV + i, NAV + j] = e[i] * (0.5 * (M[NAV + i, NAV + j] + M[NAV + j, NAV + i])) * e[j] \
-                + Qh[NAV + i, NAV + j]
+        for j in range(i, k):
+            v = e[i] * (0.5 * (M[NAV + i, NAV + j] + M[NAV + j, NAV + i])) * e[j] + Qh[NAV + i, NAV + j]
+            P1[NAV + i, NAV + j] = v
+            P1[NAV + j, NAV + i] = v
     return P1, Phi
 
 
