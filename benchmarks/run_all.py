@@ -12,11 +12,13 @@
 3. The user's path (``user_path.py``): ``import_data`` and ``replay_filter --truth
    --write-nav --write-std`` on the peer-format data set (672,399 IMU epochs at
    200 Hz, ``peer_dataset.py``, written once into ``--peer-data``), each as its own
-   process (wall and CPU), beside the engine-only figure (section 1's ENU 21 at
-   200 Hz times the epochs) and the C++ peer's time (``--peer CMD`` in the same
-   run, else its figure measured elsewhere); ``--reference`` adds the
-   per-message path of both steps in the same run and the largest difference
-   of their outputs.
+   process (wall and CPU), the replay loop alone and its cost per IMU epoch,
+   beside the C++ peer KF-GINS built from its source (``peer_kfgins.py``,
+   ``../shared/peers``, into a temporary folder) and run on the same files in
+   the same run: both whole-process times and their ratio (the peer skipped,
+   and the report saying so, on a machine without its source or a compiler;
+   ``--no-peer`` skips it); ``--reference`` adds the per-message path of both
+   steps in the same run and the largest difference of their outputs.
 4. (``--live``) the live node graph: the highest lossless real-time factor
    (fusion received == published on every input, from its /diagnostics) for
    the default scenario (50 Hz IMU) and seed 001 at its native 500 Hz, and
@@ -25,7 +27,8 @@
    loss beyond it is counted by the recorder).
 
 Options: ``--quick`` (shorter flights, a 300 s peer-format set), ``--live``, ``--json PATH``,
-``--no-user-path``, ``--reference``, ``--peer CMD``, ``--peer-data DIR``.
+``--no-user-path``, ``--user-path-only``, ``--reference``, ``--no-peer``, ``--rebuild-peer``,
+``--peer-data DIR``. The JSON names the machine (``machine``: host, CPU, cores, load).
 """
 from __future__ import annotations
 
@@ -166,12 +169,18 @@ def main(argv=None) -> int:
     ap.add_argument("--no-user-path", action="store_true", help="skip import_data + replay_filter on the peer-format set")
     ap.add_argument("--reference", action="store_true",
                     help="also time the per-message path of the user's steps in the same run and compare the outputs")
-    ap.add_argument("--peer", default=None, help="command line of the C++ peer (KF-GINS) over the same files")
+    ap.add_argument("--no-peer", action="store_true", help="do not build and run the C++ peer (KF-GINS) beside ours")
+    ap.add_argument("--rebuild-peer", action="store_true", help="build the peer afresh (else an earlier build is reused)")
+    ap.add_argument("--user-path-only", action="store_true", help="only section 3 (the user's path beside the peer)")
     ap.add_argument("--peer-data", default=str(pathlib.Path(__file__).resolve().parent / ".data" / "peer"),
                     help="where the peer-format data set is written once and kept")
     args = ap.parse_args(argv)
     dur = 10.0 if args.quick else 40.0
-    out = {"configs": {}}
+    import user_path
+    out = {"machine": user_path.machine(), "configs": {}}
+    print(f"machine: {out['machine']['text']}")
+    if args.user_path_only:
+        return _user_path(args, out, None)
     print("== fusion core cost per IMU epoch (add_imu + aiding + release), fast path vs numpy reference ==")
     print(f"  {'configuration':58s} {'fast us':>8s} {'numpy us':>9s} {'ratio':>6s}  RTF at " +
           " ".join(f"{r:>6.0f} Hz" for r in RATES_HZ))
@@ -218,12 +227,9 @@ def main(argv=None) -> int:
     import walk_replay
     out["walk_replay"] = walk_replay.run(2 if args.quick else 3)
     print(walk_replay.report_line(out["walk_replay"]))
+    engine_us = next(c["fast_us"] for lab, c in out["configs"].items() if lab.startswith("ENU 21, 200 Hz"))
     if not args.no_user_path:
-        import user_path
-        engine_us = next(c["fast_us"] for lab, c in out["configs"].items() if lab.startswith("ENU 21, 200 Hz"))
-        up = user_path.run(args.peer_data, 300.0 if args.quick else 3362.0, args.reference, args.peer)
-        out["user_path"] = up
-        print("\n".join(user_path.report_lines(up, engine_us)))
+        _user_path(args, None, engine_us, out)
     if args.live:
         from live_graph import live_search
         out["live"] = live_search(quick=args.quick)
@@ -231,6 +237,19 @@ def main(argv=None) -> int:
         print("\n== recorder: highest lossless total message rate ==")
         out["recorder"] = recorder_limits(quick=args.quick)
     if args.json:
+        pathlib.Path(args.json).write_text(json.dumps(out, indent=2, default=float))
+    return 0
+
+
+def _user_path(args, out_only, engine_us, out=None) -> int:
+    """Section 3 into ``out`` (or, ``--user-path-only``, into ``out_only`` and written as JSON)."""
+    import user_path
+    out = out if out is not None else out_only
+    up = user_path.run(args.peer_data, 300.0 if args.quick else 3362.0, args.reference, not args.no_peer,
+                       rebuild_peer=args.rebuild_peer)
+    out["user_path"] = up
+    print("\n".join(user_path.report_lines(up, engine_us)))
+    if out_only is not None and args.json:
         pathlib.Path(args.json).write_text(json.dumps(out, indent=2, default=float))
     return 0
 

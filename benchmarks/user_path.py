@@ -2,18 +2,28 @@
 the peer-format data set (``peer_dataset.py``: 672,399 IMU epochs at 200 Hz,
 3,362 GNSS fixes, a 200 Hz truth file) and ``replay_filter --truth ...
 --write-nav --write-std`` on the bag, each timed from outside as its own
-process (wall and CPU seconds, the child's own accounting).
+process (wall and CPU seconds, the child's own accounting), beside the C++
+peer KF-GINS on the same files in the same run.
 
-``--reference`` also times the per-message path of the same steps in the
-same run (``reference`` below: the bag written one message object at a time,
-replayed from deserialized messages through ``run_offline``, scored and
-written epoch by epoch, as the commands did before the array path) and
-compares the two solutions: the largest difference of any .nav / STD
-column. ``--peer CMD`` times the C++ peer (KF-GINS built from its source,
-``CMD`` its command line on a configuration over the same files) in the same
-run; without it the peer's figure is the one measured elsewhere (issue 25).
+The peer (``--peer``, on by default in ``make bench``) is built from its
+source archive (``peer_kfgins.py``: ``../shared/peers``, into a folder under
+the system's temporary directory, never into the repository) and run on the
+same IMU and GNSS files with the same filter (``peer_dataset.peer_yaml``:
+21 states, the same noise, initial state and sigmas), writing its own .nav,
+STD and IMU-error text files; both whole-process times and their ratio are
+reported. On a machine without the archive or a compiler the peer is
+skipped, and the report says so (no figure from elsewhere stands in).
 
-    python benchmarks/user_path.py [--data DIR] [--duration-s 3362] [--reference] [--peer "kf-gins cfg.yaml"]
+``loop`` times the replay loop alone (the fusion core over the bag's arrays,
+``run_offline_arrays``, in a process of its own after the bag is read) and
+gives the engine's cost per IMU epoch; ``--reference`` also times the
+per-message path of the same steps in the same run (the bag written one
+message object at a time, replayed from deserialized messages through
+``run_offline``, scored and written epoch by epoch, as the commands did
+before the array path) and compares the two solutions: the largest
+difference of any .nav / STD column.
+
+    python benchmarks/user_path.py [--data DIR] [--duration-s 3362] [--peer] [--reference] [--json PATH]
 """
 from __future__ import annotations
 
@@ -22,13 +32,11 @@ import json
 import os
 import pathlib
 import resource
-import shlex
 import subprocess
 import sys
 import time
 
 HERE = pathlib.Path(__file__).resolve().parent
-PEER_ELSEWHERE_S = 17.8          # KF-GINS whole process on the peer's own set, issue 25 (measured elsewhere)
 
 
 def timed(cmd: list[str], log=None) -> dict:
@@ -55,6 +63,28 @@ REPLAY = "import sys; from hyper_nav_sim.replay_filter import main; sys.exit(mai
 REF_IMPORT = ("import sys; from hyper_nav_sim import import_data as m; "
               "m.write(m.load_import(sys.argv[1]), sys.argv[2], per_message=True)")
 REF_REPLAY = "import sys; sys.path.insert(0, sys.argv[1]); import user_path; user_path.reference(*sys.argv[2:])"
+LOOP = "import sys; sys.path.insert(0, sys.argv[1]); import user_path; user_path.loop_only(*sys.argv[2:])"
+
+
+def loop_only(bag) -> None:
+    """The replay loop of ``replay_filter`` alone (``run_offline_arrays`` over
+    the bag's arrays, with the final release), timed in this process after the
+    bag is read; prints one JSON line: loop wall and CPU seconds, IMU epochs,
+    solutions."""
+    from hyper_nav_filter.filter_setup import FilterSetup
+    from hyper_nav_filter.offline_arrays import run_offline_arrays
+    from hyper_nav_filter.sources import make_sources, parse_sources
+    from hyper_nav_sim.core.bag_arrays import read_arrays
+    setup = FilterSetup.load(pathlib.Path(bag) / "filter.yaml")
+    inputs = {i.topic.lstrip("/") for src in make_sources(parse_sources(setup.sources), setup.config)
+              for i in src.inputs()}
+    topics = [t for name, t in read_arrays(bag).topics.items() if name.lstrip("/") in inputs]
+    run_offline_arrays(topics[:0], setup.config, setup.initial, sources=setup.sources)   # kernels loaded
+    c0, t0 = time.process_time(), time.perf_counter()
+    sols, eng, _ = run_offline_arrays(topics, setup.config, setup.initial, sources=setup.sources, final=True)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    print(json.dumps({"wall_s": wall, "cpu_s": cpu, "imu_epochs": eng.counters["imu_accepted"],
+                      "solutions": len(sols)}))
 
 
 def reference(bag, truth, nav_out, std_out) -> None:
@@ -99,8 +129,33 @@ def _rms_line(text: str) -> str:
     return next((ln for ln in text.splitlines() if ln.startswith("position")), "")
 
 
-def run(data_dir, duration_s: float, reference_path: bool = False, peer: str | None = None, work=None,
-        log=print) -> dict:
+def machine() -> dict:
+    """The machine the figures were measured on: host, CPU model, cores, load."""
+    import platform
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")),
+               platform.processor()) if os.path.exists("/proc/cpuinfo") else platform.processor()
+    d = {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(), "load_1min": os.getloadavg()[0],
+         "python": platform.python_version(), "system": f"{platform.system()} {platform.release()}"}
+    d["text"] = f"{d['host']}: {cpu}, {d['cores']} cores, load {d['load_1min']:.1f}, Python {d['python']}"
+    return d
+
+
+def run_peer(data_dir, work, rebuild: bool = False, log=print) -> dict:
+    """Build (or find the earlier build of) KF-GINS and time its whole process
+    on the data set; {"skipped": reason} when it cannot be built here."""
+    import peer_dataset
+    import peer_kfgins
+    exe, info = peer_kfgins.build(rebuild, log=log)
+    if exe is None:
+        return info
+    cfg = peer_dataset.peer_yaml(data_dir, pathlib.Path(work) / "peer")
+    r = timed([str(exe), str(cfg)], log=pathlib.Path(work) / "peer" / "stdout.txt")
+    rows = sum(1 for _ in open(pathlib.Path(work) / "peer" / "KF_GINS_Navresult.nav"))
+    return {**info, **r, "nav_rows": rows, "command": f"{exe} {cfg}"}
+
+
+def run(data_dir, duration_s: float, reference_path: bool = False, peer: bool = False, work=None,
+        log=print, rebuild_peer: bool = False) -> dict:
     import tempfile
     sys.path.insert(0, str(HERE))
     import peer_dataset
@@ -108,7 +163,7 @@ def run(data_dir, duration_s: float, reference_path: bool = False, peer: str | N
     d = pathlib.Path(data_dir)
     work = pathlib.Path(work or tempfile.mkdtemp(prefix="hyper_nav_user_path_"))
     n_imu = sum(1 for _ in open(d / "imu.txt")) - 1
-    out = {"data": str(d), "imu_epochs": n_imu, "load_before": os.getloadavg()[0]}
+    out = {"data": str(d), "imu_epochs": n_imu, "machine": machine(), "load_before": os.getloadavg()[0]}
     out["import"] = timed(_py(IMPORT, imp, "--out", work / "bag"))
     out["replay"] = timed(_py(REPLAY, work / "bag", "--truth", d / "truth.nav", "--write-nav", work / "new.nav",
                               "--write-std", work / "new_std.txt"))
@@ -120,8 +175,13 @@ def run(data_dir, duration_s: float, reference_path: bool = False, peer: str | N
         out["max_abs_diff_std"] = _max_diff(work / "new_std.txt", work / "ref_std.txt")
         out["position_rms_reference"] = _rms_line(out["reference_replay"]["output"])
     out["position_rms"] = _rms_line(out["replay"]["output"])
+    out["nav_rows"] = sum(1 for _ in open(work / "new.nav"))
+    loop = timed(_py(LOOP, HERE, work / "bag"))
+    out["loop"] = {**json.loads(loop["output"].strip().splitlines()[-1]), "process_wall_s": loop["wall_s"]}
     if peer:
-        out["peer"] = timed(shlex.split(peer))
+        out["peer"] = run_peer(d, work, rebuild_peer, log=log)
+    else:
+        out["peer"] = {"skipped": "not asked for (--peer)"}
     out["load_after"] = os.getloadavg()[0]
     for k in list(out):
         if isinstance(out[k], dict):
@@ -130,19 +190,38 @@ def run(data_dir, duration_s: float, reference_path: bool = False, peer: str | N
 
 
 def report_lines(r: dict, engine_us: float | None = None) -> list[str]:
-    lines = [f"== the user's path on the peer-format set ({r['imu_epochs']} IMU epochs), whole process, "
-             f"load {r['load_before']:.1f} -> {r['load_after']:.1f} =="]
-    peer = r.get("peer", {}).get("wall_s")
-    peer_txt = f"{peer:.1f} s (KF-GINS, this run)" if peer else f"{PEER_ELSEWHERE_S:.1f} s (KF-GINS, measured elsewhere)"
+    """The report of ``run``: both whole-process times and their ratio, the loop alone, per epoch."""
+    n = r["imu_epochs"]
+    lines = [f"== the user's path on the peer-format set ({n} IMU epochs), whole process, same files, "
+             f"same run, load {r['load_before']:.1f} -> {r['load_after']:.1f} ==",
+             f"  machine {r['machine']['text']}"]
     for step in ("import", "replay"):
         x = r[step]
         ref = r.get(f"reference_{step}")
         lines.append(f"  {step:7s} {x['wall_s']:7.1f} s wall {x['cpu_s']:7.1f} s CPU"
                      + (f"   per-message path {ref['wall_s']:7.1f} s wall {ref['cpu_s']:7.1f} s CPU "
                         f"(x{ref['wall_s'] / x['wall_s']:.1f} wall)" if ref else ""))
-    lines.append(f"  replay / peer {r['replay']['wall_s'] / (peer or PEER_ELSEWHERE_S):.2f} ({peer_txt})"
-                 + (f"; engine alone {engine_us * r['imu_epochs'] * 1e-6:.1f} s ({engine_us:.1f} us x epochs)"
-                    if engine_us else ""))
+    ours = r["import"]["wall_s"] + r["replay"]["wall_s"]
+    lo = r["loop"]
+    lines.append(f"  hyper-nav, import + replay: {ours:.1f} s wall; replay loop alone {lo['wall_s']:.1f} s "
+                 f"({lo['wall_s'] / n * 1e6:.1f} us per IMU epoch, {n / 200.0 / lo['wall_s']:.0f}x real time)"
+                 + (f"; engine bench {engine_us:.1f} us per epoch" if engine_us else ""))
+    p = r.get("peer", {})
+    if "wall_s" in p:
+        built = ", build reused" if p.get("reused") else f", built in {p['build_s']:.0f} s"
+        lines.append(f"  KF-GINS (C++, Release, built from {pathlib.Path(p['archive']).name}{built}): "
+                     f"{p['wall_s']:.1f} s wall {p['cpu_s']:.1f} s CPU ({p['wall_s'] / n * 1e6:.1f} us per IMU "
+                     f"epoch, whole process with its text I/O; {p['nav_rows']} .nav rows, ours {r['nav_rows']})")
+        ours_cpu = r["import"]["cpu_s"] + r["replay"]["cpu_s"]
+        lines.append(f"  replay / peer {r['replay']['wall_s'] / p['wall_s']:.2f}; import + replay / peer "
+                     f"{ours / p['wall_s']:.2f}; replay loop alone / peer {lo['wall_s'] / p['wall_s']:.2f} "
+                     f"(wall, whole processes, same files, same run)")
+        lines.append(f"  by CPU seconds (each process's own: the fairer figure on a shared machine): replay / peer "
+                     f"{r['replay']['cpu_s'] / p['cpu_s']:.2f}; import + replay / peer {ours_cpu / p['cpu_s']:.2f}; "
+                     f"replay loop alone / peer {lo['cpu_s'] / p['cpu_s']:.2f} ({lo['cpu_s'] / n * 1e6:.1f} against "
+                     f"{p['cpu_s'] / n * 1e6:.1f} us CPU per IMU epoch)")
+    else:
+        lines.append(f"  replay / peer: not measured: KF-GINS skipped ({p.get('skipped', 'not run')})")
     if "max_abs_diff_nav" in r:
         lines.append(f"  array path vs per-message path: largest difference .nav {r['max_abs_diff_nav']:.3g}, "
                      f"STD {r['max_abs_diff_std']:.3g}")
@@ -155,10 +234,11 @@ def main(argv=None) -> int:
     ap.add_argument("--data", default=str(HERE / ".data" / "peer"))
     ap.add_argument("--duration-s", type=float, default=3362.0)
     ap.add_argument("--reference", action="store_true")
-    ap.add_argument("--peer", default=None)
+    ap.add_argument("--peer", action="store_true", help="build KF-GINS from ../shared/peers and run it beside ours")
+    ap.add_argument("--rebuild-peer", action="store_true", help="build the peer afresh (else an earlier build is reused)")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
-    r = run(a.data, a.duration_s, a.reference, a.peer)
+    r = run(a.data, a.duration_s, a.reference, a.peer, rebuild_peer=a.rebuild_peer)
     print("\n".join(report_lines(r)))
     if a.json:
         pathlib.Path(a.json).write_text(json.dumps(r, indent=1))

@@ -25,6 +25,7 @@ import gc
 
 import numpy as np
 
+from .core import fusion_run
 from .core.config import FilterConfig
 from .core.fusion import FusionEngine, Solution
 from .core.nav_state import NavState
@@ -152,7 +153,7 @@ def run_offline_arrays(topics, cfg: FilterConfig, initial: NavState, sources: di
             stamp = f["header.stamp.sec"] + f["header.stamp.nanosec"] * 1e-9     # conversions.stamp_to_s
             w = np.column_stack([f[f"angular_velocity.{a}"] for a in "xyz"]).astype(float)
             a = np.column_stack([f[f"linear_acceleration.{a}"] for a in "xyz"]).astype(float)
-            fast.append((src, stamp.tolist(), w, a))
+            fast.append((src, stamp.tolist(), w, a, np.ascontiguousarray(stamp, dtype=np.float64)))
         elif len(routes) == 1 and not src.drives_time \
                 and (items := src.prepare_rows(role, t.fields, len(t))) is not None:
             fast.append((src, role, items))          # converted column by column, fed one by one
@@ -195,10 +196,25 @@ def _young_collections_only():
 
 
 def _feed(eng, router, topics, fast, schemas, which, rows, hooks, counters, out, progress, collect) -> None:
-    """Every message in the chosen order into the engine (see run_offline_arrays)."""
+    """Every message in the chosen order into the engine (see run_offline_arrays).
+    Consecutive IMU samples (a run between two other messages) go through the
+    engine's compiled run (``core.fusion_run``) while the engine is in its
+    common case, from the first sample it cannot take on sample by sample
+    (``add_imu_rates``), with the same results bit for bit; not when a source
+    waits on every IMU sample (``on_imu``)."""
     add_imu = eng.add_imu_rates
     release = eng.release
-    for k, (i, r) in enumerate(zip(which.tolist(), rows.tolist())):
+    n = len(which)
+    run_ok = not hooks and fusion_run.static_ok(eng)
+    if run_ok:                                     # end (exclusive) of the run of one topic at each position
+        starts = np.flatnonzero(np.diff(which)) + 1
+        ends = np.append(starts, n)
+        run_end = np.repeat(ends, np.diff(np.concatenate(([0], ends)))).tolist()
+    which_l, rows_l = which.tolist(), rows.tolist()
+    next_progress, next_collect = 0, GC_YOUNG_EVERY
+    k = 0
+    while k < n:
+        i, r = which_l[k], rows_l[k]
         fi = fast[i]
         if fi is not None and len(fi) == 2:
             topic, messages = fi
@@ -207,21 +223,39 @@ def _feed(eng, router, topics, fast, schemas, which, rows, hooks, counters, out,
             src, role, items = fi
             src.on_prepared(role, items[r], eng)
         elif fi is not None:
-            src, stamp, w, a = fi
-            ok, reason = add_imu(stamp[r], w[r], a[r])
-            if ok:
-                counters[src] = counters.get(src, 0) + 1
+            src, stamp, w, a, stamp_arr = fi
+            taken = fusion_run.add_imu_rates_run(eng, stamp_arr, w, a, rows[k:run_end[k]]) if run_ok \
+                and run_end[k] - k >= fusion_run.MIN_RUN else 0
+            if taken:
+                counters[src] = counters.get(src, 0) + taken
+                out.extend(release())
+                k += taken
             else:
-                _count(src, reason)
-            for s in hooks:
-                s.on_imu(eng)
-            out.extend(release())
+                ok, reason = add_imu(stamp[r], w[r], a[r])
+                if ok:
+                    counters[src] = counters.get(src, 0) + 1
+                else:
+                    _count(src, reason)
+                for s in hooks:
+                    s.on_imu(eng)
+                out.extend(release())
+                k += 1
+            if progress is not None and k > next_progress:
+                progress(k - 1)
+                next_progress = (k - 1) // 20000 * 20000 + 20000
+            if collect and k >= next_collect:
+                gc.collect(1)
+                next_collect = k // GC_YOUNG_EVERY * GC_YOUNG_EVERY + GC_YOUNG_EVERY
+            continue
         else:
             out.extend(router.handle_topic(topics[i].topic, RowView(topics[i].fields, r, schema=schemas[i]))[1])
-        if progress is not None and k % 20000 == 0:
+        if progress is not None and k >= next_progress:
             progress(k)
-        if collect and k % GC_YOUNG_EVERY == GC_YOUNG_EVERY - 1:
+            next_progress = k // 20000 * 20000 + 20000
+        k += 1
+        if collect and k >= next_collect:
             gc.collect(1)
+            next_collect = k // GC_YOUNG_EVERY * GC_YOUNG_EVERY + GC_YOUNG_EVERY
 
 
 def _count(src, reason: str) -> None:

@@ -26,8 +26,9 @@ def mm3(A, B):
     """3 x 3 product in scalar code: numba's ``@`` calls BLAS, whose call
     overhead is several times the arithmetic at this size (measured on the
     ENU kernel: mechanization 2.4 -> 1.2 us, body couplings 1.9 -> 1.0 us;
-    the 15 x 15 covariance products stay on BLAS, which beat scalar loops
-    that skip F's zero rows, 3.2 vs 6.5 us)."""
+    dense 15 x 15 products stay on BLAS, which beat scalar loops that skip
+    F's zero rows, 3.2 vs 6.5 us; the covariance propagation now goes by the
+    blocks of F instead, ``predict.propagate_covariance_blocks``)."""
     out = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
