@@ -58,6 +58,9 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
     --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF \
     --event-handlers console_cohesion- summary+ 2>&1 | tail -n 20
   touch install/.stamp
+  # numba's cache=True does not see a change in a function a cached kernel calls from another file (a stale
+  # kernel ran after a merge, issue 41): the sources changed, so every cached kernel is compiled afresh
+  find src build install \( -name '*.nbi' -o -name '*.nbc' \) -delete 2>/dev/null || true
   # compile the filter's fast-path kernels into numba's on-disk cache now, not in a node's first callback
   # (the two frames' kernels and the bag reader's in parallel: the machine has two cores)
   ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
