@@ -16,6 +16,10 @@ from hyper_nav_sim.graph import Graph
 from hyper_nav_sim.testing import TopicCollector
 
 
+def _stamp(msg) -> float:
+    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+
+
 def _imu(t_s, wz=0.0):
     m = Imu()
     m.header.stamp.sec, m.header.stamp.nanosec = int(t_s), int(round((t_s % 1) * 1e9))
@@ -29,7 +33,7 @@ def _imu(t_s, wz=0.0):
 def test_nan_and_out_of_order_imu_rejected_counted_and_node_keeps_running():
     """Only the fusion node runs; the test publishes IMU messages to it over
     DDS, one with NaN and one out of order, and reads /diagnostics."""
-    outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix}
+    outputs = {"nav/state": NavState, "nav/odom": Odometry, "nav/fix": NavSatFix, "nav/delayed/state": NavState}
     with Graph("default", nodes=("fusion",), extra_subscribers={t: 1 for t in outputs}) as g:
         with TopicCollector({"/diagnostics": DiagnosticArray, **outputs}, domain_id=g.domain_id) as c:
             pub = c.publisher(Imu, "imu/data_raw")
@@ -69,9 +73,13 @@ def test_nan_and_out_of_order_imu_rejected_counted_and_node_keeps_running():
             assert v["received imu/data_raw"] == "102" and v["processed imu/data_raw"] == "100"
             assert v["level"] in (1, b'\x01')    # WARN while input is being rejected (byte field)
             # the filter kept producing solutions after the bad samples
-            # 100 epochs, released 1 s (output_delay_s) behind the newest: t = 0.02 .. 1.0
-            assert c.wait_for(lambda m: len(m["nav/state"]) >= 50, 10.0)
-            assert len(c.messages["nav/state"]) == 50
+            # 100 epochs, the record released 1 s (output_delay_s) behind the newest: t = 0.02 .. 1.0; the
+            # current-time state at each of the 100 accepted samples (issue 35), none at the rejected ones
+            assert c.wait_for(lambda m: len(m["nav/delayed/state"]) >= 50 and len(m["nav/state"]) >= 100, 10.0)
+            assert len(c.messages["nav/delayed/state"]) == 50
+            assert np.isfinite(c.messages["nav/delayed/state"][-1].alt_m)
+            assert len(c.messages["nav/state"]) == 100
+            assert [_stamp(m) for m in c.messages["nav/state"]] == pytest.approx(stamps, abs=1e-9)
             assert np.isfinite(c.messages["nav/state"][-1].alt_m)
 
 
