@@ -78,7 +78,7 @@ def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
         topics[f"/{ns}/geomag/quality"] = MatchQuality
     try:
         with TopicCollector(topics, domain_id=domain_id) as c:
-            pubs = {ns: (c.publisher(NavState, f"/{ns}/nav/state"), c.publisher(MagneticField, f"/{ns}/imu/mag"))
+            pubs = {ns: (c.publisher(NavState, f"/{ns}/nav/delayed/state"), c.publisher(MagneticField, f"/{ns}/imu/mag"))
                     for ns in procs}
             deadline = time.monotonic() + 30.0
             while any(p.get_subscription_count() < 1 for pp in pubs.values() for p in pp):
