@@ -157,9 +157,12 @@ def main(argv=None) -> int:
     ap.add_argument("--aiding-delay", type=float, default=None,
                     help="the delayed aiding's output delay, s (implies --aiding delayed; its default 0.1 s: "
                          "0.1-0.2 s old aiding)")
+    ap.add_argument("--skip-case", action="append", default=[], choices=("virtual",),
+                    help="leave a comparison case out (repeatable)")
     ap.add_argument("--short", action="store_true")
     ap.add_argument("--out", default=None, help="default results/aided_tracking (results/aided_tracking_pullup)")
     a = ap.parse_args(argv)
+    a.cases = tuple(c for c in CASES if c not in a.skip_case)
     if a.aiding is None:
         a.aiding = "current" if a.aiding_delay is None else "delayed"
     if a.aiding == "current" and a.aiding_delay is not None:
@@ -190,7 +193,7 @@ def main(argv=None) -> int:
     for seed in range(a.seeds):
         res, rx = run_seed(seed, a.duration, tuple(a.blackout),
                            filter_overrides=_filter_overrides(a.filter, a.aiding_delay), flight_overrides=flight,
-                           aiding=a.aiding)
+                           aiding=a.aiding, cases=a.cases)
         runs.append(res)
         if pull is not None:
             for k in pull_rx:
@@ -208,18 +211,18 @@ def main(argv=None) -> int:
     t = runs[0]["a"].t_s
     def curve(c, f):
         return np.stack([np.interp(t, r[c].t_s, f(r[c])) for r in runs])
-    hpos = {c: curve(c, lambda r: np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1])) for c in CASES}
-    vpos = {c: curve(c, lambda r: np.abs(r.pos_err_enu_m[:, 2])) for c in CASES}
-    hvel = {c: curve(c, lambda r: np.hypot(r.vel_err_enu_mps[:, 0], r.vel_err_enu_mps[:, 1])) for c in CASES}
-    vvel = {c: curve(c, lambda r: np.abs(r.vel_err_enu_mps[:, 2])) for c in CASES}
-    nees = {c: curve(c, lambda r: r.nees_pos) for c in CASES}
+    hpos = {c: curve(c, lambda r: np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1])) for c in a.cases}
+    vpos = {c: curve(c, lambda r: np.abs(r.pos_err_enu_m[:, 2])) for c in a.cases}
+    hvel = {c: curve(c, lambda r: np.hypot(r.vel_err_enu_mps[:, 0], r.vel_err_enu_mps[:, 1])) for c in a.cases}
+    vvel = {c: curve(c, lambda r: np.abs(r.vel_err_enu_mps[:, 2])) for c in a.cases}
+    nees = {c: curve(c, lambda r: r.nees_pos) for c in a.cases}
     n = len(runs)
     band = (float(chi2.ppf(0.025, 3 * n) / n), float(chi2.ppf(0.975, 3 * n) / n))
     during = (t >= t_on) & (t <= t_end)
     after = t > t_end
     both = t >= t_on
     summary = {}
-    for c in CASES:
+    for c in a.cases:
         anees = nees[c].mean(axis=0)
         d = {"h_err_at_end_plus_5s_m": [float(np.interp(t5, t, x)) for x in hpos[c]]}
         d["h_err_at_end_plus_5s_median_m"] = float(np.median(d["h_err_at_end_plus_5s_m"]))
@@ -240,9 +243,9 @@ def main(argv=None) -> int:
         summary[c] = d
     # the figure's curves on a 1 s grid: seed-mean horizontal error per case
     grid = np.arange(np.ceil(t[0]), t[-1] + 1e-9, 1.0)
-    curves = {"t_s": grid.tolist(), **{c: np.interp(grid, t, hpos[c].mean(axis=0)).round(4).tolist() for c in CASES}}
+    curves = {"t_s": grid.tolist(), **{c: np.interp(grid, t, hpos[c].mean(axis=0)).round(4).tolist() for c in a.cases}}
     ha = summary["a"]["h_err_at_end_plus_5s_median_m"]
-    for c in CASES:
+    for c in a.cases:
         summary[c]["within_2x_a_at_end_plus_5s"] = summary[c]["h_err_at_end_plus_5s_median_m"] <= 2 * ha
     rq = {}
     for k, v in reacq.items():
@@ -271,7 +274,7 @@ def main(argv=None) -> int:
                 "carrier_outage_s_median": float(np.median([o for o in outs if o is not None])) if any(
                     o is not None for o in outs) else None,
                 "carrier_not_back": sum(o is None for o in outs), "per_seed": v}
-        for c in CASES:
+        for c in a.cases:
             pdoc["cases"][c] = {"pos_h_m_mean": float(hpos[c][:, wp].mean()), "pos_h_m_max": float(hpos[c][:, wp].max()),
                                 "pos_v_m_mean": float(vpos[c][:, wp].mean()),
                                 "anees_pos": float(nees[c].mean(axis=0)[wp].mean())}
@@ -289,7 +292,7 @@ def main(argv=None) -> int:
     a.pull, a.mean_age_s = pull, doc["aiding_mean_age_s"]
     pngs = plot(t, hpos, nees, band, runs, reacq, a, out, n)
     print(f"ANEES 95 % band over {n} seeds: [{band[0]:.2f}, {band[1]:.2f}]")
-    for c in CASES:
+    for c in a.cases:
         s = summary[c]
         print(f"{CASE_NAMES[c]:44s}: h err {t5:.0f} s {s['h_err_at_end_plus_5s_median_m']:7.2f} m "
               f"(2x (a) {2 * ha:.2f}: {'met' if s['within_2x_a_at_end_plus_5s'] else 'NOT met'}); "
@@ -339,7 +342,7 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
              else f", delayed aiding (output delay {a.aiding_delay:g} s)")
     pngs = []
     fig, axs = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
-    for c in CASES:
+    for c in a.cases:
         axs[0].plot(t, hpos[c].mean(axis=0), label=CASE_NAMES[c])
     r0 = runs[0]["aided"]
     from hyper_nav_sim.core import scoring  # noqa: F401  (keeps the import graph of the cases)
@@ -348,7 +351,7 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     axs[0].set_yscale("log")
     axs[0].set_ylabel("horizontal position error [m]\n(mean over seeds)")
     axs[0].legend(fontsize=8)
-    for c in CASES:
+    for c in a.cases:
         axs[1].plot(t, nees[c].mean(axis=0), label=CASE_NAMES[c], lw=0.8)
     axs[1].axhspan(*band, color="k", alpha=0.1, label="95 % band")
     axs[1].axvspan(t_on, t_end, color="grey", alpha=0.1)
