@@ -24,9 +24,16 @@ a lift that answers in 0.1 s, a 2 g pull-up command (lift-limited to 2.2 g,
 jerk up to 66 m/s^3 at its ends) inside a 15 dB sheath; reported besides, per
 receiver, the channels that keep code and carrier lock through it and how
 long carrier stays lost, and per case the error and ANEES in the pull-up's
-window. ``--aiding-delay``: the filter's output delay (the aiding's age, 0.1
-s by default): with 0.1 s the aided loops see the pull-up's jerk through 0.1-0.2
-s of extrapolation.
+window.
+
+``--aiding``: ``current`` (default, issue 35) the aided receiver takes the
+filter's current-time state (``FusionEngine.current``, the live ``nav/state``)
+with the scenario's default filter settings: at most one IMU interval old at
+the receiver's epoch (the mean age used is reported, ``mean_age_s``);
+``delayed`` the released record (``nav/delayed/state``) with the filter's
+output delay set to ``--aiding-delay`` s (default 0.1: the aiding 0.1-0.2 s
+old, the aided loops see the pull-up's jerk through that much extrapolation;
+the study's setting before issue 35, kept for comparison).
 """
 from __future__ import annotations
 
@@ -38,7 +45,7 @@ import time
 
 import numpy as np
 
-from .blackout_cases import CASE_NAMES, CASES, pullup_flight, run_seed
+from .blackout_cases import AIDING, CASE_NAMES, CASES, pullup_flight, run_seed
 
 SHORT = {"duration_s": 40.0, "blackout": (10.0, 4.0, 8.0, 40.0), "seeds": 1}
 # the pull-up flight (--pullup): seed 004's vehicle with a lift that answers in 0.1 s (10 c_l per s;
@@ -53,12 +60,14 @@ SHORT_PULLUP = {"duration_s": 40.0, "blackout": (10.0, 4.0, 8.0, 40.0), "seeds":
 AIDED_RULE_DBHZ = 17.9           # pll_threshold_dbhz(3 Hz, 20 ms): asserted in test_acquisition
 
 
-def _filter_overrides(name, aiding_delay_s=0.1):
-    """The filter of ``--filter`` with its solutions released ``aiding_delay_s``
-    behind the IMU (the aiding's age is that to one IMU interval more)."""
-    d = {"filter.config.output_delay_s": float(aiding_delay_s),
-         "filter.sources.gnss_raw.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s),
-         "filter.sources.gnss_virtual.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s)}
+def _filter_overrides(name, aiding_delay_s=None):
+    """The filter of ``--filter``; with ``aiding_delay_s`` (the delayed aiding)
+    its solutions released that far behind the IMU (the aiding's age is that
+    to one IMU interval more); None: the scenario's output delay."""
+    d = {} if aiding_delay_s is None else {
+        "filter.config.output_delay_s": float(aiding_delay_s),
+        "filter.sources.gnss_raw.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s),
+        "filter.sources.gnss_virtual.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s)}
     if name == "before":
         return d
     from hyper_nav_repro.seed004.tc_consistency import AFTER
@@ -141,11 +150,25 @@ def main(argv=None) -> int:
     ap.add_argument("--filter", choices=("after", "before"), default="after")
     ap.add_argument("--pullup", action="store_true",
                     help="the pull-up flight instead (PULLUP: a 2 g pull-up with 0.2 s ramps inside a 15 dB sheath)")
-    ap.add_argument("--aiding-delay", type=float, default=0.1,
-                    help="the filter's output delay, s: the aiding's age (default 0.1 s, 0.1-0.2 s old)")
+    ap.add_argument("--aiding", choices=AIDING, default=None,
+                    help="current: the filter's current-time state with its default settings (the default "
+                         "without --aiding-delay); "
+                         "delayed: the released record with the output delay --aiding-delay")
+    ap.add_argument("--aiding-delay", type=float, default=None,
+                    help="the delayed aiding's output delay, s (implies --aiding delayed; its default 0.1 s: "
+                         "0.1-0.2 s old aiding)")
+    ap.add_argument("--skip-case", action="append", default=[], choices=("virtual",),
+                    help="leave a comparison case out (repeatable)")
     ap.add_argument("--short", action="store_true")
     ap.add_argument("--out", default=None, help="default results/aided_tracking (results/aided_tracking_pullup)")
     a = ap.parse_args(argv)
+    a.cases = tuple(c for c in CASES if c not in a.skip_case)
+    if a.aiding is None:
+        a.aiding = "current" if a.aiding_delay is None else "delayed"
+    if a.aiding == "current" and a.aiding_delay is not None:
+        ap.error("--aiding-delay sets the delayed record's output delay: give it with --aiding delayed")
+    if a.aiding == "delayed" and a.aiding_delay is None:
+        a.aiding_delay = 0.1
     from scipy.stats import chi2
     pull = None
     if a.pullup:
@@ -169,7 +192,8 @@ def main(argv=None) -> int:
     aid_counts, pull_rx = [], {"unaided": [], "aided": []}
     for seed in range(a.seeds):
         res, rx = run_seed(seed, a.duration, tuple(a.blackout),
-                           filter_overrides=_filter_overrides(a.filter, a.aiding_delay), flight_overrides=flight)
+                           filter_overrides=_filter_overrides(a.filter, a.aiding_delay), flight_overrides=flight,
+                           aiding=a.aiding, cases=a.cases)
         runs.append(res)
         if pull is not None:
             for k in pull_rx:
@@ -187,18 +211,18 @@ def main(argv=None) -> int:
     t = runs[0]["a"].t_s
     def curve(c, f):
         return np.stack([np.interp(t, r[c].t_s, f(r[c])) for r in runs])
-    hpos = {c: curve(c, lambda r: np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1])) for c in CASES}
-    vpos = {c: curve(c, lambda r: np.abs(r.pos_err_enu_m[:, 2])) for c in CASES}
-    hvel = {c: curve(c, lambda r: np.hypot(r.vel_err_enu_mps[:, 0], r.vel_err_enu_mps[:, 1])) for c in CASES}
-    vvel = {c: curve(c, lambda r: np.abs(r.vel_err_enu_mps[:, 2])) for c in CASES}
-    nees = {c: curve(c, lambda r: r.nees_pos) for c in CASES}
+    hpos = {c: curve(c, lambda r: np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1])) for c in a.cases}
+    vpos = {c: curve(c, lambda r: np.abs(r.pos_err_enu_m[:, 2])) for c in a.cases}
+    hvel = {c: curve(c, lambda r: np.hypot(r.vel_err_enu_mps[:, 0], r.vel_err_enu_mps[:, 1])) for c in a.cases}
+    vvel = {c: curve(c, lambda r: np.abs(r.vel_err_enu_mps[:, 2])) for c in a.cases}
+    nees = {c: curve(c, lambda r: r.nees_pos) for c in a.cases}
     n = len(runs)
     band = (float(chi2.ppf(0.025, 3 * n) / n), float(chi2.ppf(0.975, 3 * n) / n))
     during = (t >= t_on) & (t <= t_end)
     after = t > t_end
     both = t >= t_on
     summary = {}
-    for c in CASES:
+    for c in a.cases:
         anees = nees[c].mean(axis=0)
         d = {"h_err_at_end_plus_5s_m": [float(np.interp(t5, t, x)) for x in hpos[c]]}
         d["h_err_at_end_plus_5s_median_m"] = float(np.median(d["h_err_at_end_plus_5s_m"]))
@@ -219,9 +243,9 @@ def main(argv=None) -> int:
         summary[c] = d
     # the figure's curves on a 1 s grid: seed-mean horizontal error per case
     grid = np.arange(np.ceil(t[0]), t[-1] + 1e-9, 1.0)
-    curves = {"t_s": grid.tolist(), **{c: np.interp(grid, t, hpos[c].mean(axis=0)).round(4).tolist() for c in CASES}}
+    curves = {"t_s": grid.tolist(), **{c: np.interp(grid, t, hpos[c].mean(axis=0)).round(4).tolist() for c in a.cases}}
     ha = summary["a"]["h_err_at_end_plus_5s_median_m"]
-    for c in CASES:
+    for c in a.cases:
         summary[c]["within_2x_a_at_end_plus_5s"] = summary[c]["h_err_at_end_plus_5s_median_m"] <= 2 * ha
     rq = {}
     for k, v in reacq.items():
@@ -250,13 +274,14 @@ def main(argv=None) -> int:
                 "carrier_outage_s_median": float(np.median([o for o in outs if o is not None])) if any(
                     o is not None for o in outs) else None,
                 "carrier_not_back": sum(o is None for o in outs), "per_seed": v}
-        for c in CASES:
+        for c in a.cases:
             pdoc["cases"][c] = {"pos_h_m_mean": float(hpos[c][:, wp].mean()), "pos_h_m_max": float(hpos[c][:, wp].max()),
                                 "pos_v_m_mean": float(vpos[c][:, wp].mean()),
                                 "anees_pos": float(nees[c].mean(axis=0)[wp].mean())}
     doc = {"issue": 23, "data": "simulated world (seed004_virtual flight, realistic-world receiver errors)"
            + ("; the pull-up flight (seed 004's vehicle, lift answering in 0.1 s, 2 g pull-up)" if pull else ""),
-           "scenario": "seed004_virtual", "filter": a.filter, "aiding_delay_s": a.aiding_delay,
+           "scenario": "seed004_virtual", "filter": a.filter, "aiding": a.aiding, "aiding_delay_s": a.aiding_delay,
+           "aiding_mean_age_s": float(np.mean([c["mean_age_s"] for c in aid_counts])),
            "seeds": n, "duration_s": a.duration,
            "blackout": {"t_on_s": t_on, "ramp_s": ramp, "hold_s": hold, "depth_db": depth, "t_end_s": t_end},
            "cases": CASE_NAMES, "anees_band_95": band, "epoch_resolution_s": 1.0,
@@ -264,10 +289,10 @@ def main(argv=None) -> int:
            "h_error_mean_over_seeds_m": curves,
            "aiding_counters": aid_counts, "cpu_s": cpu, **({"pullup": pdoc} if pull is not None else {})}
     (out / "blackout_cases.json").write_text(json.dumps(doc, indent=1))
-    a.pull = pull
+    a.pull, a.mean_age_s = pull, doc["aiding_mean_age_s"]
     pngs = plot(t, hpos, nees, band, runs, reacq, a, out, n)
     print(f"ANEES 95 % band over {n} seeds: [{band[0]:.2f}, {band[1]:.2f}]")
-    for c in CASES:
+    for c in a.cases:
         s = summary[c]
         print(f"{CASE_NAMES[c]:44s}: h err {t5:.0f} s {s['h_err_at_end_plus_5s_median_m']:7.2f} m "
               f"(2x (a) {2 * ha:.2f}: {'met' if s['within_2x_a_at_end_plus_5s'] else 'NOT met'}); "
@@ -296,6 +321,8 @@ def main(argv=None) -> int:
         for c, v in pdoc["cases"].items():
             print(f"pull-up window, {CASE_NAMES[c]:44s}: h err mean {v['pos_h_m_mean']:.2f} max {v['pos_h_m_max']:.2f} m,"
                   f" v err mean {v['pos_v_m_mean']:.2f} m, position ANEES {v['anees_pos']:.2f}")
+    print(f"aiding: {a.aiding} state, mean age at the aided epochs {1e3 * doc['aiding_mean_age_s']:.1f} ms"
+          + ("" if a.aiding == "current" else f" (output delay {a.aiding_delay:g} s)"))
     print(f"CPU {cpu:.0f} s; wrote {out / 'blackout_cases.json'} and {', '.join(str(p) for p in pngs)}")
     return 0
 
@@ -311,10 +338,11 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
         pu = a.pull
         data += (f", {pu['load_g']:g} g pull-up {pu['t_start_s']:g}-{pu['t_start_s'] + pu['length_s']:g} s "
                  f"(lift answering in {pu['lift_tau_s']:g} s)")
-    data += f", aiding {a.aiding_delay:g} s old"
+    data += (f", current-time aiding (mean age {a.mean_age_s * 1e3:.1f} ms)" if a.aiding == "current"
+             else f", delayed aiding (output delay {a.aiding_delay:g} s)")
     pngs = []
     fig, axs = plt.subplots(2, 1, figsize=(11, 8), sharex=True)
-    for c in CASES:
+    for c in a.cases:
         axs[0].plot(t, hpos[c].mean(axis=0), label=CASE_NAMES[c])
     r0 = runs[0]["aided"]
     from hyper_nav_sim.core import scoring  # noqa: F401  (keeps the import graph of the cases)
@@ -323,7 +351,7 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     axs[0].set_yscale("log")
     axs[0].set_ylabel("horizontal position error [m]\n(mean over seeds)")
     axs[0].legend(fontsize=8)
-    for c in CASES:
+    for c in a.cases:
         axs[1].plot(t, nees[c].mean(axis=0), label=CASE_NAMES[c], lw=0.8)
     axs[1].axhspan(*band, color="k", alpha=0.1, label="95 % band")
     axs[1].axvspan(t_on, t_end, color="grey", alpha=0.1)
