@@ -14,13 +14,16 @@ corrupted by the scenario's IMU error model as one continuous process
 (``ImuErrorState``), the loosely coupled GNSS fixes of ``gnss_model`` (white
 noise: not the raw-GNSS realistic world), both generated as the flight
 advances, fed to the fusion engine in time order; the guidance flies on the
-engine's released (1 s delayed) solutions. GNSS outages drop the fixes in
-their windows (a blackout, or INS alone from a time on). The command for
-the navigation stamp t_nav applies at ceil((t_nav + apply_delay_s) / period_s):
-on the delayed stream apply_delay_s must exceed the filter's output delay.
-
-Not here yet: the current-time stream (issue 35) -- ``stream="current"``
-raises until the engine provides it.
+engine's navigation: ``stream="delayed"`` its released (1 s delayed)
+solutions (``FusionEngine.release``, the live ``nav/delayed/state``),
+``stream="current"`` its current-time state (``FusionEngine.current``, issue
+35: the state at the IMU sample just added, the live ``nav/state``), read
+after every IMU sample, acted on at the guidance grid's stamps. GNSS outages
+drop the fixes in their windows (a blackout, or INS alone from a time on).
+The command for the navigation stamp t_nav applies at
+ceil((t_nav + apply_delay_s) / period_s): on the delayed stream
+apply_delay_s must exceed the filter's output delay; on the current stream
+one guidance period (0.1 s, as the truth-fed loop) is enough.
 """
 from __future__ import annotations
 
@@ -41,6 +44,9 @@ from hyper_nav_sim.core.imu_model import ImuErrors, ImuErrorState, corrupt_incre
 from hyper_nav_sim.core.scenario import Scenario
 
 from .core.law import GlideGuidance, miss_enu_m
+
+
+STREAMS = ("delayed", "current")
 
 
 @dataclass
@@ -125,12 +131,11 @@ def fly_on_truth(sc: Scenario) -> LoopResult:
 def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) -> LoopResult:
     """Guidance on the fusion engine's solutions (module doc). ``gnss_outages``:
     [(t0, t1), ...] windows without GNSS fixes (t1 may be inf)."""
-    if stream != "delayed":
-        raise NotImplementedError(f"stream {stream!r}: the engine's current-time state is issue 35's; "
-                                  "only the delayed solution exists on this branch")
+    if stream not in STREAMS:
+        raise ValueError(f"stream {stream!r}: one of {STREAMS}")
     cfg, flight = make_flight(sc)
     fcfg = sc.filter_config()
-    if cfg.apply_delay_s <= fcfg.output_delay_s:
+    if stream == "delayed" and cfg.apply_delay_s <= fcfg.output_delay_s:
         raise ValueError(f"guidance.apply_delay_s ({cfg.apply_delay_s:g} s) must exceed the delayed stream's "
                          f"output_delay_s ({fcfg.output_delay_s:g} s)")
     loop = CommandLoop(flight, cfg.t_start_s, expect=True)
@@ -171,7 +176,11 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
             t = t_imu[k + i]
             _imu_epoch(eng, t, dth_b[i], dv_b[i])
             j = _gnss_until(eng, flight, sc, t_gnss, j, t, rng_gnss, gnss_outages)
-            act(eng.release())
+            released = eng.release()
+            if stream == "delayed":
+                act(released)
+            elif eng.current is not None and abs(eng.current.t_s - t) <= 1e-9:
+                act((eng.current,))              # the state at this sample (formed when it was added)
         k = k1
     nav_err = 0.0
     if last_nav is not None:

@@ -5,22 +5,28 @@ The guidance_glide flight (30 km / 3000 m/s to a point 300 km down-range,
 offline closed loop (``closed_loop``: the cores of the live graph), over
 seeds (IMU and GNSS noise draws; the flight and law are deterministic):
 
-  truth            guidance on the exact truth, commands applied 0.1 s after the state (the truth-fed loop)
-  truth_1.1s       the same with the 1.1 s apply delay the delayed stream needs (latency alone)
-  nav_<stream>     on the fusion engine's navigation stream, GNSS throughout
-  blackout_60s     the same with a 60 s GNSS blackout (40-100 s, ends 13 s before the target)
-  ins_after_50s    GNSS lost from 50 s on: INS alone for the last ~63 s, through the terminal phase
+  truth                 guidance on the exact truth, commands applied 0.1 s after the state (the truth-fed
+                        loop; the latency of the current-time stream too)
+  truth_1.1s            the same with the 1.1 s apply delay the delayed stream needs (latency alone)
+  nav_<stream>          on the fusion engine's navigation stream, GNSS throughout
+  blackout_60s_<stream> the same with a 60 s GNSS blackout (40-100 s, ends 13 s before the target)
+  ins_after_50s_<stream> GNSS lost from 50 s on: INS alone for the last ~63 s, through the terminal phase
 
-``--stream delayed`` (default) flies on the 1 s delayed solution (the only
-one on this branch); ``current`` needs issue 35's current-time state (the
-nav cases are then to be re-run). Per case: miss distance (mean, spread),
+Streams (``--stream``, default ``both``): ``delayed``, the 1 s delayed
+solution (``nav/delayed/state``), commands applied 1.1 s after its stamp
+(output_delay_s + one guidance period); ``current``, the engine's
+current-time state (issue 35, ``nav/state``: the state at the newest IMU
+sample, latency zero in stamp), commands applied 0.1 s after it (one
+guidance period: the command for stamp t applies from the next guidance
+step, as in the truth-fed loop, which is therefore its same-latency
+reference). Per case: miss distance (mean, spread),
 down-/cross-range error and navigation error (3-D, at the last navigation
 stamp used) at the target, and the commands' RMS difference from the
 truth-fed loop's at the same stamps. Data: simulated world (white-noise
 GNSS fixes of ``gnss_model``, the scenario's IMU error model), the filter
 model of the scenario; not the raw-GNSS realistic world.
 
-    ros2run hyper_nav_guidance repro_guidance --out results/guidance [--seeds 10] [--short]
+    ros2run hyper_nav_guidance repro_guidance --out results/guidance [--seeds 10] [--stream both|delayed|current] [--short]
 """
 from __future__ import annotations
 
@@ -37,15 +43,21 @@ from hyper_nav_sim.core.scenario import load_scenario
 from .closed_loop import fly_on_navigation, fly_on_truth, with_changes
 
 DELAYED_APPLY_S = 1.1          # > the filter's output_delay_s (1 s) + one guidance period
+CURRENT_APPLY_S = 0.1          # the current-time stream: latency 0 in stamp, + one guidance period
+APPLY_S = {"delayed": DELAYED_APPLY_S, "current": CURRENT_APPLY_S}
+OUTAGES = {"nav": (), "blackout_60s": ((40.0, 100.0),), "ins_after_50s": ((50.0, math.inf),)}
 
 
 def cases(stream: str):
-    """name -> (kind, scenario changes, GNSS outages)."""
-    return {"truth": ("truth", {}, ()),
-            "truth_1.1s": ("truth", {"guidance.apply_delay_s": DELAYED_APPLY_S}, ()),
-            f"nav_{stream}": ("nav", {"guidance.apply_delay_s": DELAYED_APPLY_S}, ()),
-            "blackout_60s": ("nav", {"guidance.apply_delay_s": DELAYED_APPLY_S}, ((40.0, 100.0),)),
-            "ins_after_50s": ("nav", {"guidance.apply_delay_s": DELAYED_APPLY_S}, ((50.0, math.inf),))}
+    """name -> (kind, stream, scenario changes, GNSS outages); ``stream``: delayed, current or both."""
+    streams = ("delayed", "current") if stream == "both" else (stream,)
+    out = {"truth": ("truth", None, {}, ())}
+    if "delayed" in streams:
+        out["truth_1.1s"] = ("truth", None, {"guidance.apply_delay_s": DELAYED_APPLY_S}, ())
+    for case, outages in OUTAGES.items():
+        for st in streams:
+            out[f"{case}_{st}"] = ("nav", st, {"guidance.apply_delay_s": APPLY_S[st]}, outages)
+    return out
 
 
 def command_difference(cmds, ref):
@@ -64,12 +76,12 @@ def run(out: pathlib.Path, seeds: int, stream: str, scenario: str = "guidance_gl
     out.mkdir(parents=True, exist_ok=True)
     rows, tracks = {}, {}
     ref = None
-    for name, (kind, changes, outages) in cases(stream).items():
+    for name, (kind, st, changes, outages) in cases(stream).items():
         rows[name] = []
         for s in range(seeds if kind == "nav" else 1):        # the truth loops have no noise: one run
             sc = with_changes(base, {**changes, "seed": int(base["seed"]) + s})
             t0 = time.perf_counter()
-            r = fly_on_truth(sc) if kind == "truth" else fly_on_navigation(sc, stream, outages)
+            r = fly_on_truth(sc) if kind == "truth" else fly_on_navigation(sc, st, outages)
             if name == "truth":
                 ref = r.commands
             row = {"seed": int(sc["seed"]), **{k: float(v) for k, v in r.miss.items()},
@@ -77,7 +89,7 @@ def run(out: pathlib.Path, seeds: int, stream: str, scenario: str = "guidance_gl
                    "commands": len(r.commands), "refused": r.refused,
                    "command_diff": command_difference(r.commands, ref), "wall_s": time.perf_counter() - t0}
             rows[name].append(row)
-            print(f"{name:14s} seed {row['seed']:3d}  miss {row['miss_m']:8.2f} m  down {row['down_range_m']:8.2f}"
+            print(f"{name:22s} seed {row['seed']:3d}  miss {row['miss_m']:8.2f} m  down {row['down_range_m']:8.2f}"
                   f"  cross {row['cross_range_m']:7.2f}  nav err {row['nav_error_end_m']:6.2f} m  "
                   f"d sigma {row['command_diff']['sigma_rms_deg']:.3f} deg  ({row['wall_s']:.0f} s)", flush=True)
             if s == 0:
@@ -101,14 +113,14 @@ def run(out: pathlib.Path, seeds: int, stream: str, scenario: str = "guidance_gl
     result = {"scenario": scenario, "stream": stream, "seeds": seeds, "summary": summary, "runs": rows,
               "data": "simulated world: white-noise loosely coupled GNSS fixes, the scenario's IMU error model; "
                       "closed loop offline on the live graph's cores (closed_loop.py)",
-              "pending": ["nav_current: the current-time stream (issue 35) is not on this branch; "
-                          "re-run with --stream current after the merge"] if stream == "delayed" else []}
+              "apply_delay_s": {"truth": 0.1, "truth_1.1s": DELAYED_APPLY_S, **APPLY_S},
+              "pending": [] if stream == "both" else [f"only the {stream} stream was run (--stream both for both)"]}
     (out / "repro_guidance.json").write_text(json.dumps(result, indent=1, default=float))
     _plots(out, tracks, summary, base)
-    print(f"\n{'case':14s} {'runs':>4s} {'miss mean':>10s} {'spread':>8s} {'down':>8s} {'cross':>8s} "
+    print(f"\n{'case':22s} {'runs':>4s} {'miss mean':>10s} {'spread':>8s} {'down':>8s} {'cross':>8s} "
           f"{'nav err':>8s} {'dsigma':>7s} {'x truth':>8s}")
     for name, s in summary.items():
-        print(f"{name:14s} {s['runs']:4d} {s['miss_mean_m']:10.2f} {s['miss_std_m']:8.2f} "
+        print(f"{name:22s} {s['runs']:4d} {s['miss_mean_m']:10.2f} {s['miss_std_m']:8.2f} "
               f"{s['down_range_mean_m']:8.2f} {s['cross_range_mean_m']:8.2f} {s['nav_error_end_mean_m']:8.2f} "
               f"{s['sigma_diff_rms_deg']:7.3f} {s.get('miss_ratio_to_truth', 1.0):8.1f}")
     return result
@@ -160,7 +172,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="results/guidance")
     ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--stream", default="delayed", choices=("delayed", "current"))
+    ap.add_argument("--stream", default="both", choices=("both", "delayed", "current"))
     ap.add_argument("--scenario", default="guidance_glide")
     ap.add_argument("--short", action="store_true", help="one seed (the test's mode)")
     a = ap.parse_args(argv)
