@@ -22,6 +22,7 @@ snapshot is a set of references and costs nothing to take.
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -432,6 +433,11 @@ class ErrorStateKF:
                 return UpdateResult(kind, t_s, nis, False, residual)
             P_infl, k = lockout.inflation(self.P, np.asarray(H, float), np.asarray(R, float), residual, self.layout,
                                           self.lockout_rule.target_nis_per_dof, self._P0_diag())
+            if not math.isfinite(k):         # the nav states cannot explain it: refused, no recovery (lockout)
+                self.n_rejected += 1
+                self.stats = {**self.stats, kind: (acc, gated + 1, nis_sum)}
+                self.watch = {**self.watch, kind: lockout.unexplained(w)}
+                return UpdateResult(kind, t_s, nis, False, residual)
             self.P = P_infl
             self.watch = {**self.watch, kind: lockout.recovered(w, t_s, k)}
             status, nis, dx, P = self._gated_update(residual, H, R, dof)

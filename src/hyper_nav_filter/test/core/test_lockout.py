@@ -65,6 +65,24 @@ def test_the_inflation_brings_the_refused_innovation_to_its_target_and_keeps_P_p
         np.testing.assert_array_equal(P1[lay.sl("att"), lay.sl("att")], P[lay.sl("att"), lay.sl("att")])
 
 
+def test_no_recovery_when_the_nav_states_cannot_explain_the_innovation():
+    """An innovation in a state the inflation does not touch (here a clock-like state outside att/vel/pos,
+    as virtual pseudoranges through a lock loss): no k up to 1e12 brings it inside, so no inflation
+    (k = inf, P unchanged; seed 004's case b had gone to NaN through two capped inflations)."""
+    cfg = FilterConfig.from_dict({"state_blocks": ["att", "vel", "pos", "bg", "ba"]})
+    lay = cfg.layout
+    P = np.eye(lay.dim) * 1e-6
+    H = np.zeros((2, lay.dim))
+    H[0, lay.sl("pos").start] = 1.0                                    # observes east position ...
+    H[1, lay.sl("bg").start] = 1.0                                     # ... and a gyro bias (not inflated)
+    R = np.eye(2) * 1e-4
+    r = np.array([0.0, 300.0])                                          # all of it in the unobserved part
+    P1, k = lockout.inflation(P, H, R, r, lay, 1.0)
+    assert k == math.inf and P1 is P
+    w = lockout.unexplained(lockout.gated(lockout.Watch(), 1.0))
+    assert (w.run, w.unexplained, w.recoveries) == (0, 1, 0) and math.isnan(w.t_run_start_s)
+
+
 def test_unknown_recovery_is_refused():
     with pytest.raises(ConfigError, match="lockout_recovery"):
         FilterConfig.from_dict({"lockout_recovery": "reset_all"})
