@@ -90,7 +90,8 @@ def test_aided_receiver_through_the_pullup_needs_fresh_aiding():
     locks = {}
     for delay in (0.02, 0.1):
         _, rx = run_seed(0, PULLUP["duration_s"], PULLUP["blackout"], cases=("aided", "unaided"),
-                         filter_overrides=_filter_overrides("after", delay), flight_overrides=flight)
+                         filter_overrides=_filter_overrides("after", delay), flight_overrides=flight,
+                         aiding="delayed")       # the released record, 'delay' behind (the current-time state: below)
         locks[delay] = {k: pullup_locks(rx[k], t0, t1) for k in ("aided", "unaided")}
     fresh, old = locks[0.02]["aided"], locks[0.1]["aided"]
     assert fresh["carrier_before"] >= 7 and fresh["carrier_lost"] == 0 and fresh["code_min"] == fresh["code_before"]
