@@ -43,7 +43,6 @@ import numpy as np
 
 from .eskf import FilterSnapshot
 from .fast import enu_run
-from .frames.enu import EnuFrame
 from .fusion import _EPS_S, FusionEngine, _Epoch
 from .nav_state import ImuSample
 
@@ -61,7 +60,7 @@ def static_ok(eng: FusionEngine) -> bool:
     per sample does)."""
     kf = eng.kf
     cfg = kf.cfg
-    return (kf.fast and type(kf.frame) is EnuFrame and not kf._preprocessors and not kf._propagated
+    return (kf.fast and kf.frame.compiled_runs and not kf._preprocessors and not kf._propagated
             and cfg.gyro_rate_error_pct <= 0.0 and not eng.keep_history
             and cfg.output_delay_s + cfg.imu_gap_s < cfg.reprocess_window_s)
 

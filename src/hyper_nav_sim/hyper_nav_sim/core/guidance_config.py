@@ -29,6 +29,8 @@ Fields (units in the names; angles in degrees)::
 from __future__ import annotations
 
 import math
+
+from .boost_glide_config import _num  # one number validator for the flight and guidance blocks
 from dataclasses import dataclass
 
 from .fields import check_keys
@@ -114,16 +116,3 @@ def _topic(d, key, default):
     return v
 
 
-def _num(d, key, path, default=_MISSING, positive=False, nonneg=False):
-    if key not in d:
-        if default is _MISSING:
-            raise ValueError(f"{path}{key}: missing required field")
-        return default
-    v = d[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError(f"{path}{key}: expected a number, got {v!r}")
-    if positive and not v > 0:
-        raise ValueError(f"{path}{key}: must be > 0, got {v!r}")
-    if nonneg and v < 0:
-        raise ValueError(f"{path}{key}: must be >= 0, got {v!r}")
-    return float(v)

@@ -34,6 +34,7 @@ _I3 = np.eye(3)
 
 class EnuFrame:
     name = "ENU"
+    compiled_runs = True     # core.fusion_run: this frame's predict has a compiled run over IMU arrays
     nominal_size = NOMINAL_SIZE
 
     def __init__(self, cfg, initial: NavState):

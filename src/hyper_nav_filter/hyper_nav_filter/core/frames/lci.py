@@ -45,6 +45,7 @@ _I3 = np.eye(3)
 
 class LciFrame:
     name = "LCI"
+    compiled_runs = False    # core.fusion_run: no compiled run (samples go one by one)
     nominal_size = NOMINAL_SIZE
 
     def __init__(self, cfg, initial: NavState, launch: LaunchFrame | None = None):
