@@ -37,11 +37,11 @@ setup:
 	@bash tools/setup.sh
 
 run: setup
-	@$(ENV) ros2run hyper_nav_sim run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report $(RUN_ARGS)
+	@$(ENV) ros2run hyper_nav_workbench run_graph --scenario $(SCENARIO) --record bags/$(RUN_NAME) --report $(RUN_ARGS)
 
 LOAD_ARGS ?= --freeze-each 5
 load-run: setup
-	@$(ENV) ros2run hyper_nav_sim load_flight $(LOAD_ARGS) -- --scenario $(SCENARIO) --record bags/load_$(RUN_NAME) --report $(RUN_ARGS)
+	@$(ENV) ros2run hyper_nav_workbench load_flight $(LOAD_ARGS) -- --scenario $(SCENARIO) --record bags/load_$(RUN_NAME) --report $(RUN_ARGS)
 
 # the node-graph tests one at a time and, beside them at nice 19, the unit tests on
 # two workers (tools/run_tests.sh); TEST_ARGS go to both pytest runs
@@ -79,7 +79,7 @@ repro-aided-tracking: setup
 repro-guidance: setup
 	@$(ENV) ros2run hyper_nav_guidance repro_guidance --out results/guidance $(ARGS)
 repro-walk: setup
-	@$(ENV) ros2run hyper_nav_sim repro_walk --out results/walk $(ARGS)
+	@$(ENV) ros2run hyper_nav_repro repro_walk --out results/walk $(ARGS)
 
 study-lincov: setup
 	@$(ENV) ros2run hyper_nav_repro study_lincov --out results/lincov $(ARGS)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from hyper_nav_sim.core import simulate
-from hyper_nav_sim.core.bag import BagWriter, serialize, typestore
+from hyper_nav_workbench.core.bag import BagWriter, serialize, typestore
 
 
 def write_sensor_bag(sc, path) -> None:

@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from hyper_nav_sim.core.gnss.tracking import ChannelBank, LoopConfig
+from hyper_nav_gnss.receiver.tracking import ChannelBank, LoopConfig
 
 
 def rate(compiled, sim_s, cfg, n_ch=12, cn0_dbhz=40.0):

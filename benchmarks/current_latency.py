@@ -45,7 +45,7 @@ CASES = {"loose200": ("default", 200.0), "loose1000": ("default", 1000.0),
 def record(scenario: str, imu_hz: float, duration_s: float, out: pathlib.Path, domain: int) -> pathlib.Path:
     bag = out / "bag"
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
-    subprocess.run([ROS2RUN, "hyper_nav_sim", "run_graph", "--scenario", scenario, "--set", f"duration_s={duration_s}",
+    subprocess.run([ROS2RUN, "hyper_nav_workbench", "run_graph", "--scenario", scenario, "--set", f"duration_s={duration_s}",
                     "--set", f"imu.rate_hz={imu_hz}", "--record", str(bag)], check=True, env=env,
                    stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
     return bag
@@ -70,9 +70,9 @@ def measure(bag: pathlib.Path, domain: int) -> dict:
     from hyper_nav_filter.nodes.fusion_node import message_class
     from hyper_nav_filter.ros_util import latched_qos, publisher_qos
     from hyper_nav_msgs.msg import NavState
-    from hyper_nav_sim.core.bag import read_bag
+    from hyper_nav_workbench.core.bag import read_bag
     from hyper_nav_sim.core.scenario import load_scenario
-    from hyper_nav_sim.graph import _NoAliasDumper, bag_scenario, fusion_parameters
+    from hyper_nav_workbench.graph import _NoAliasDumper, bag_scenario, fusion_parameters
     from hyper_nav_filter.sources import make_sources, parse_sources
 
     sc = load_scenario(bag_scenario(bag))
@@ -176,9 +176,9 @@ def in_process(bag: pathlib.Path) -> dict:
     from hyper_nav_filter.ros_util import assign_fields
     from hyper_nav_filter.sources.router import SourceRouter
     from hyper_nav_msgs.msg import NavState
-    from hyper_nav_sim.core.bag import read_bag
+    from hyper_nav_workbench.core.bag import read_bag
     from hyper_nav_sim.core.scenario import load_scenario
-    from hyper_nav_sim.graph import bag_scenario
+    from hyper_nav_workbench.graph import bag_scenario
     sc = load_scenario(bag_scenario(bag))
     cfg = sc.filter_config()
     eng = FusionEngine(cfg, sc.filter_initial_state())

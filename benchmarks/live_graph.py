@@ -8,8 +8,8 @@ from __future__ import annotations
 import os
 import time
 
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import load_run
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import load_run
 from scratch import scratch_dir
 
 # label: (scenario, factors tried in turn, overrides)

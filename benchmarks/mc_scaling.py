@@ -18,7 +18,7 @@ import yaml
 
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from scratch import scratch_dir
-from hyper_nav_sim.mc_campaign import campaign
+from hyper_nav_workbench.mc_campaign import campaign
 
 
 def main() -> None:

@@ -32,9 +32,9 @@ import time
 import numpy as np
 
 from hyper_nav_filter.core.config import FilterConfig
-from hyper_nav_sim.core import scoring
+from hyper_nav_workbench.core import scoring
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
-from hyper_nav_sim.offline_fly import fly_current, nees_pos_vel
+from hyper_nav_workbench.offline_fly import fly_current, nees_pos_vel
 
 
 def scenario(seed: int, duration_s: float, imu_hz: float):
@@ -63,7 +63,7 @@ def timed_predictor(eng) -> list:
 
 
 def one(sc, cfg, gnss_delay_s, duration_s, outage, t_from):
-    import hyper_nav_sim.offline_fly as of
+    import hyper_nav_workbench.offline_fly as of
     real = of.FusionEngine
     pred_times = []
 
@@ -111,7 +111,7 @@ def micro(imu_hz: float, delay_s: float) -> dict:
     (medians: robust to a busy machine's preemptions)."""
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_sim.core import simulate
-    from hyper_nav_sim.offline_fly import gnss_measurements
+    from hyper_nav_workbench.offline_fly import gnss_measurements
     sc = scenario(0, 20.0, imu_hz)
     traj = sc.trajectory()
     imu = simulate.imu_stream(sc, traj)

@@ -47,7 +47,7 @@ def write(directory, duration_s: float = DURATION_S, log=print) -> pathlib.Path:
     from hyper_nav_filter.core.initial_state import state_values
     from hyper_nav_sim.core import simulate
     from hyper_nav_sim.core.scenario import load_scenario
-    from hyper_nav_sim.graph import apply_overrides
+    from hyper_nav_workbench.graph import apply_overrides
 
     d = pathlib.Path(directory)
     d.mkdir(parents=True, exist_ok=True)

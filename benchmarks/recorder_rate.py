@@ -38,7 +38,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Imu
 
-from hyper_nav_sim.core.bag import read_bag
+from hyper_nav_workbench.core.bag import read_bag
 from scratch import scratch_dir
 
 N_TOPICS = 4
@@ -52,7 +52,7 @@ def _recorder(bag: pathlib.Path, work: pathlib.Path, domain: int) -> subprocess.
     topics = [f"/bench/imu{i}" for i in range(N_TOPICS)]
     params.write_text(yaml.safe_dump({"/**": {"ros__parameters": {
         "output": str(bag), "topics": topics, "qos_depth": DEPTH, "discovery_period_s": 0.1}}}))
-    exe = pathlib.Path(get_package_prefix("hyper_nav_sim")) / "lib" / "hyper_nav_sim" / "recorder"
+    exe = pathlib.Path(get_package_prefix("hyper_nav_workbench")) / "lib" / "hyper_nav_workbench" / "recorder"
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), PYTHONUNBUFFERED="1")
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     return subprocess.Popen([str(exe), "--ros-args", "--params-file", str(params)], env=env,

@@ -43,7 +43,7 @@ import time
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from scratch import scratch_dir
-from hyper_nav_sim.offline_fly import gnss_measurements
+from hyper_nav_workbench.offline_fly import gnss_measurements
 
 CONFIGS = [  # label, scenario, extra filter fields, scenario overrides, measurement kinds used (None: all)
     ("ENU 15 (default: 50 Hz IMU, GNSS 10 Hz pos+vel)", "default", {}, {}, None),
@@ -128,8 +128,8 @@ def offline_replay(duration_s: float) -> dict:
     from bag_fixture import write_sensor_bag
     from hyper_nav_filter.offline import run_offline
     from hyper_nav_filter.offline_arrays import run_offline_arrays
-    from hyper_nav_sim.core.bag import deserialize, read_bag
-    from hyper_nav_sim.core.bag_arrays import read_arrays
+    from hyper_nav_workbench.core.bag import deserialize, read_bag
+    from hyper_nav_workbench.core.bag_arrays import read_arrays
     sc = _scenario("default", None, duration_s)
     bag = scratch_dir("bag_") / "default"
     write_sensor_bag(sc, bag)

@@ -33,11 +33,11 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1, help="runs of each (the best is reported)")
     a = ap.parse_args(argv)
     files = [str(f) for f in (a.files or TLSE)]
-    from hyper_nav_sim import spp
-    from hyper_nav_sim.core import rtklib_reference as rr
-    from hyper_nav_sim.core import spp_run
-    from hyper_nav_sim.core.importer.rtklib_pos import read_pos
-    from hyper_nav_filter.core import earth
+    from hyper_nav_workbench import spp
+    from hyper_nav_workbench.core import rtklib_reference as rr
+    from hyper_nav_workbench.core import spp_run
+    from hyper_nav_workbench.core.importer.rtklib_pos import read_pos
+    from hyper_nav_gnss import earth
     ours, theirs = [], []
     with tempfile.TemporaryDirectory(prefix="bench_spp_") as tmp:
         for k in range(a.repeat):

@@ -58,8 +58,8 @@ def _py(code: str, *args) -> list[str]:
     return [sys.executable, "-c", code, *map(str, args)]
 
 
-IMPORT = "import sys; from hyper_nav_sim.import_data import main; sys.exit(main(sys.argv[1:]))"
-REPLAY = "import sys; from hyper_nav_sim.replay_filter import main; sys.exit(main(sys.argv[1:]))"
+IMPORT = "import sys; from hyper_nav_workbench.import_data import main; sys.exit(main(sys.argv[1:]))"
+REPLAY = "import sys; from hyper_nav_workbench.replay_filter import main; sys.exit(main(sys.argv[1:]))"
 REF_IMPORT = ("import sys; from hyper_nav_sim import import_data as m; "
               "m.write(m.load_import(sys.argv[1]), sys.argv[2], per_message=True)")
 REF_REPLAY = "import sys; sys.path.insert(0, sys.argv[1]); import user_path; user_path.reference(*sys.argv[2:])"
@@ -74,7 +74,7 @@ def loop_only(bag) -> None:
     from hyper_nav_filter.filter_setup import FilterSetup
     from hyper_nav_filter.offline_arrays import run_offline_arrays
     from hyper_nav_filter.sources import make_sources, parse_sources
-    from hyper_nav_sim.core.bag_arrays import read_arrays
+    from hyper_nav_workbench.core.bag_arrays import read_arrays
     setup = FilterSetup.load(pathlib.Path(bag) / "filter.yaml")
     inputs = {i.topic.lstrip("/") for src in make_sources(parse_sources(setup.sources), setup.config)
               for i in src.inputs()}
@@ -95,10 +95,10 @@ def reference(bag, truth, nav_out, std_out) -> None:
     from hyper_nav_filter.core.attitude import C_b_n_to_euler
     from hyper_nav_filter.filter_setup import FilterSetup
     from hyper_nav_filter.offline import run_offline
-    from hyper_nav_sim.core import scoring
-    from hyper_nav_sim.replay_filter import sigma_blocks
-    from hyper_nav_sim.core.bag import deserialize, read_bag
-    from hyper_nav_sim.core.importer import columns, kfgins, score
+    from hyper_nav_workbench.core import scoring
+    from hyper_nav_workbench.replay_filter import sigma_blocks
+    from hyper_nav_workbench.core.bag import deserialize, read_bag
+    from hyper_nav_workbench.core.importer import columns, kfgins, score
     setup = FilterSetup.load(pathlib.Path(bag) / "filter.yaml")
     records = [(r.topic, deserialize(r.raw, r.msgtype)) for r in read_bag(bag)]
     sols, eng = run_offline(records, setup.config, setup.initial, sources=setup.sources, final=True)

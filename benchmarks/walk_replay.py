@@ -22,8 +22,8 @@ DONE = re.compile(r"done: ([0-9.]+) s sim in .*?, ([0-9.]+)x real time")
 
 def run(repeats: int = 3) -> dict | None:
     """Figures of the walk replay, or None when the shared recording is not on this machine."""
-    from hyper_nav_sim import repro_walk
-    from hyper_nav_sim.spp import default_data_dir
+    from hyper_nav_repro.walk import reproduce as repro_walk
+    from hyper_nav_workbench.spp import default_data_dir
     if not (default_data_dir() / "walk_0827" / "imu_1730_sf.csv").exists():
         return None
     bag = scratch_dir("walk_") / "bag"

@@ -8,9 +8,9 @@ import socket
 
 import pytest
 
-from hyper_nav_sim.foxglove_client import FoxgloveClient
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import load_run
+from hyper_nav_workbench.foxglove_client import FoxgloveClient
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import load_run
 
 LEVER_ARMS = {"gnss.antenna_lever_arm_b_m": [2.0, 0.0, 0.5], "filter.config.antenna_lever_arm_b_m": [2.0, 0.0, 0.5],
               "magnetometer.lever_arm_b_m": [-1.5, 0.0, 0.3]}

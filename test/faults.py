@@ -12,8 +12,8 @@ import time
 import numpy as np
 from ament_index_python.packages import get_package_prefix
 
-from hyper_nav_sim.core.bag import BagWriter, deserialize, read_bag, serialize
-from hyper_nav_sim.graph import executables
+from hyper_nav_workbench.core.bag import BagWriter, deserialize, read_bag, serialize
+from hyper_nav_workbench.graph import executables
 
 EXE_TO_NODE = {exe: name for name, (_pkg, exe) in executables().items()}
 
@@ -28,7 +28,7 @@ class RunGraph:
     def __init__(self, workdir: pathlib.Path, *args: str):
         self.workdir = pathlib.Path(workdir)
         self.out_path, self.err_path = self.workdir / "run_graph.out", self.workdir / "run_graph.err"
-        self.proc = subprocess.Popen([command("hyper_nav_sim", "run_graph"), *args],
+        self.proc = subprocess.Popen([command("hyper_nav_workbench", "run_graph"), *args],
                                      stdout=self.out_path.open("w"), stderr=self.err_path.open("w"))
 
     def children(self) -> dict[str, int]:
@@ -108,7 +108,7 @@ def report_json(bag: pathlib.Path) -> dict:
 
 def statuses(bag: pathlib.Path) -> dict[str, list]:
     """Every recorded /diagnostics status: name -> [(t, level, message, values)]."""
-    from hyper_nav_sim.report import load_run
+    from hyper_nav_workbench.report import load_run
     return load_run(bag)["timeline"]
 
 

@@ -13,10 +13,10 @@ import time
 import numpy as np
 import pytest
 
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.core.scoring import errors, states_from_msgs, summarize
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import delivery_check, load_run
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.core.scoring import errors, states_from_msgs, summarize
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import delivery_check, load_run
 
 pytestmark = pytest.mark.graph
 

@@ -12,8 +12,8 @@ from sensor_msgs.msg import Imu, NavSatFix
 
 from ament_index_python.packages import get_package_prefix
 
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.testing import TopicCollector
 
 
 def _stamp(msg) -> float:
@@ -99,7 +99,7 @@ def test_malformed_scenario_fails_naming_the_field(tmp_path, field, value, expec
     cur[parts[-1]] = value
     bad = tmp_path / "bad.yaml"
     bad.write_text(yaml.safe_dump(data))
-    run_graph = os.path.join(get_package_prefix("hyper_nav_sim"), "lib", "hyper_nav_sim", "run_graph")
+    run_graph = os.path.join(get_package_prefix("hyper_nav_workbench"), "lib", "hyper_nav_workbench", "run_graph")
     proc = subprocess.run([run_graph, "--scenario", str(bad)],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode != 0

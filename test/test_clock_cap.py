@@ -6,9 +6,9 @@ Real graph over DDS; only /clock, truth/state and /diagnostics are recorded."""
 import numpy as np
 import pytest
 
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import load_run
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import load_run
 
 pytestmark = pytest.mark.graph
 

@@ -11,11 +11,11 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import NavSatFix
 
 from hyper_nav_filter.offline import run_offline
-from hyper_nav_sim.core.bag import deserialize, read_bag
+from hyper_nav_workbench.core.bag import deserialize, read_bag
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.core.scoring import errors, states_from_msgs, states_from_solutions, summarize
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.core.scoring import errors, states_from_msgs, states_from_solutions, summarize
+from hyper_nav_workbench.testing import TopicCollector
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 
@@ -49,7 +49,7 @@ def test_replay_filter_smooth_reports_the_smoother_next_to_the_filter(capsys):
     """``replay_filter <bag> --smooth``: the RTS smoother's table is printed
     after the filter's, and it is better (measured on sample_short, t >= 3 s:
     position RMS 3D 0.96 -> 0.39 m, velocity 0.037 -> 0.021 m/s)."""
-    from hyper_nav_sim.replay_filter import main as replay_main
+    from hyper_nav_workbench.replay_filter import main as replay_main
     assert replay_main([str(BAG), "--smooth", "--set", "report.skip_s=3"]) == 0
     out = capsys.readouterr().out
     assert "fixed-interval RTS smoother over the same pass:" in out

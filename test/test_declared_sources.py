@@ -14,11 +14,11 @@ from hyper_nav_msgs.msg import NavState
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from hyper_nav_filter.core import earth
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.core.scoring import errors, states_from_msgs
-from hyper_nav_sim.report import delivery_check, load_run
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_gnss import earth
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.core.scoring import errors, states_from_msgs
+from hyper_nav_workbench.report import delivery_check, load_run
+from hyper_nav_workbench.testing import TopicCollector
 
 pytestmark = pytest.mark.graph
 

@@ -79,7 +79,7 @@ def test_killed_nodes(tmp_path):
     publishers, the report fails naming every dead node with its exit status
     and the sim time of its last heartbeat, and run_graph exits 1."""
     from diagnostic_msgs.msg import DiagnosticArray
-    from hyper_nav_sim.testing import TopicCollector
+    from hyper_nav_workbench.testing import TopicCollector
     bag = tmp_path / "bag"
     killed = {"mag": "magnetometer", "gnss": "gnss", "imu": "imu", "fusion": "fusion"}
     with TopicCollector({"/diagnostics": DiagnosticArray}, domain_id=int(os.environ.get("ROS_DOMAIN_ID", 0))) as c:
@@ -181,7 +181,7 @@ def test_bad_input_replayed(tmp_path):
     mcap = next(bag.glob("*.mcap"))
     mcap.write_bytes(mcap.read_bytes()[: int(mcap.stat().st_size * 0.7)])
     (bag / "metadata.yaml").unlink()
-    p = subprocess.run([command("hyper_nav_sim", "report"), str(bag)], capture_output=True, text=True, timeout=120)
+    p = subprocess.run([command("hyper_nav_workbench", "report"), str(bag)], capture_output=True, text=True, timeout=120)
     assert p.returncode == 1 and f"FAIL: bag: truncated: {mcap}" in p.stdout, p.stdout + p.stderr
 
 
@@ -227,7 +227,7 @@ def test_kill_9_of_run_graph_leaves_no_node_behind(tmp_path):
         time.sleep(0.2)
     assert not alive(pids.values()), "node processes left behind"
     assert (bag / "metadata.yaml").is_file()
-    from hyper_nav_sim.core.bag import read_bag
+    from hyper_nav_workbench.core.bag import read_bag
     reader = read_bag(bag)
     assert not reader.truncated and sum(1 for r in reader if r.topic == "/imu/data_raw") > 0
 
@@ -237,9 +237,9 @@ def test_unreadable_and_truncated_bags(tmp_path, capsys):
     node left running. A truncated bag: replay_filter fails (exit 1) naming
     the file, and still scores what is readable. (report, replay_filter and
     run_graph are called in-process, as their console scripts do.)"""
-    from hyper_nav_sim.graph import main as run_graph
-    from hyper_nav_sim.replay_filter import main as replay_filter
-    from hyper_nav_sim.report import main as report
+    from hyper_nav_workbench.graph import main as run_graph
+    from hyper_nav_workbench.replay_filter import main as replay_filter
+    from hyper_nav_workbench.report import main as report
     tiny = tmp_path / "tiny"
     tiny.mkdir()
     (tiny / "tiny.mcap").write_bytes((SAMPLE / "sample_short.mcap").read_bytes()[:20])
@@ -248,7 +248,7 @@ def test_unreadable_and_truncated_bags(tmp_path, capsys):
         assert fn(argv) == 2, name
         err = capsys.readouterr().err
         assert f"{name}: error: " in err and "tiny.mcap" in err, (name, err)
-    p = subprocess.run([command("hyper_nav_sim", "player"), "--ros-args", "-p", f"bag:={tiny}"],
+    p = subprocess.run([command("hyper_nav_workbench", "player"), "--ros-args", "-p", f"bag:={tiny}"],
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
     assert "player: error: " in p.stderr and "no readable messages" in p.stderr and "tiny.mcap" in p.stderr
@@ -269,8 +269,8 @@ def test_flight_across_180_deg_in_2022(tmp_path):
     GNSS updates after the crossing accepted (none gated), the report passes
     with metre-level errors, exit 0."""
     from faults import nav_longitudes_deg
-    from hyper_nav_sim.core import wmm
-    from hyper_nav_sim.core.bag import deserialize, read_bag
+    from hyper_nav_filter.core import wmm
+    from hyper_nav_workbench.core.bag import deserialize, read_bag
     bag = tmp_path / "bag"
     rg = RunGraph(tmp_path, "--set", "duration_s=16", "--set", "start.lon_deg=179.95",
                   "--set", "start.vel_enu_mps=[1700.0, 0.0, 0.0]", "--set", "magnetometer.epoch_decimal_year=2022.5",

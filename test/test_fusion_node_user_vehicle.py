@@ -26,9 +26,9 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Imu, NavSatFix
 from tf2_msgs.msg import TFMessage
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.ros_util import publisher_qos
-from hyper_nav_sim.testing import TopicCollector, isolated_domain_id
+from hyper_nav_workbench.testing import TopicCollector, isolated_domain_id
 
 pytestmark = pytest.mark.graph
 ROS2RUN = str(pathlib.Path(__file__).resolve().parents[1] / "tools" / "ros2run")

@@ -16,10 +16,10 @@ from hyper_nav_aiding.core.geomag_map import GeomagMap
 from hyper_nav_aiding.core.matching import LocalFrame
 from hyper_nav_aiding.geomag_conversions import mag_sample, nav_point
 from hyper_nav_filter.conversions import stamp_to_s
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.core.scoring import errors, states_from_msgs
-from hyper_nav_sim.report import delivery_check, load_run
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.core.scoring import errors, states_from_msgs
+from hyper_nav_workbench.report import delivery_check, load_run
 
 pytestmark = pytest.mark.graph
 

@@ -5,9 +5,9 @@ import pytest
 from ament_index_python.packages import get_package_prefix
 
 from hyper_nav_filter.offline import run_offline
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.core.scoring import errors, states_from_msgs, summarize
-from hyper_nav_sim.report import delivery_check
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.core.scoring import errors, states_from_msgs, summarize
+from hyper_nav_workbench.report import delivery_check
 
 pytestmark = pytest.mark.graph
 
@@ -109,7 +109,8 @@ def test_messages_carry_real_covariances_and_frames(recorded_run):
 
 
 def test_executables_sit_where_ros2_run_finds_them():
-    expected = {"hyper_nav_sim": ["truth_node", "imu_node", "gnss_node", "mag_node", "recorder", "player", "run_graph"],
+    expected = {"hyper_nav_sim": ["truth_node", "imu_node", "gnss_node", "mag_node"],
+                "hyper_nav_workbench": ["recorder", "player", "run_graph"],
                 "hyper_nav_filter": ["fusion_node"]}
     import os
     for pkg, exes in expected.items():

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from hyper_nav_filter.offline import run_offline
-from hyper_nav_sim.core.bag import deserialize, read_bag
+from hyper_nav_workbench.core.bag import deserialize, read_bag
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.graph import bag_scenario
+from hyper_nav_workbench.graph import bag_scenario
 
 BAG = pathlib.Path(__file__).resolve().parents[1] / ".." / "shared" / "regressions" / "late-fix-order" / "bag"
 INPUTS = ("/imu/data_raw", "/gnss/fix", "/gnss/vel")

@@ -21,10 +21,10 @@ from sensor_msgs.msg import NavSatFix
 
 from hyper_nav_filter.conversions import stamp_to_s
 from hyper_nav_filter.offline import run_offline
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import delivery_check, load_run
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import delivery_check, load_run
+from hyper_nav_workbench.testing import TopicCollector
 
 pytestmark = pytest.mark.graph
 

@@ -2,7 +2,7 @@
 process at normal priority while one node is frozen (SIGSTOP) and resumed,
 and every message published is recorded, received and processed.
 
-The short form of ``load_flight`` (``hyper_nav_sim.load_harness``). The
+The short form of ``load_flight`` (``hyper_nav_workbench.load_harness``). The
 frozen node is the IMU node, which lost 354 of the 8,000 ``imu/load``
 messages at the recorder before the fix (a frozen producer released its
 backlog in one burst, deeper than its consumers' queues, after the clock had
@@ -13,10 +13,10 @@ import time
 
 import pytest
 
-from hyper_nav_sim.core import run_check
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.load_harness import BusyProcesses, freeze
-from hyper_nav_sim.report import delivery_check, load_run
+from hyper_nav_workbench.core import run_check
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.load_harness import BusyProcesses, freeze
+from hyper_nav_workbench.report import delivery_check, load_run
 
 pytestmark = pytest.mark.graph
 

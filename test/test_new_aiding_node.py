@@ -19,7 +19,7 @@ import subprocess
 
 import pytest
 
-from hyper_nav_sim.report import load_run
+from hyper_nav_workbench.report import load_run
 
 pytestmark = pytest.mark.graph
 REPO = pathlib.Path(__file__).resolve().parents[1]
@@ -51,7 +51,7 @@ import json, pathlib, tempfile
 from hyper_nav_filter.sources import load_plugins
 from hyper_nav_sim.core import aiding_nodes
 from hyper_nav_sim.core.scenario import ScenarioError, apply_overrides, fusion_inputs, load_scenario
-from hyper_nav_sim.graph import Graph, executable
+from hyper_nav_workbench.graph import Graph, executable
 sc = load_scenario("{install}/hyper_nav_fix_relay/{SCENARIO}")
 g = Graph(sc)
 out = {{"nodes": list(g.nodes), "relay": g._params("fix_relay"), "gnss": g._params("gnss"),
@@ -84,7 +84,7 @@ def test_the_new_node_flies_in_the_graph(install, tmp_path):
     all 120, the fusion node processes all 120, the report passes (measured:
     position RMS 3D 1.1 m after 4 s)."""
     bag = tmp_path / "bag"
-    p = _bash(f"ros2run hyper_nav_sim run_graph --scenario {install}/hyper_nav_fix_relay/{SCENARIO} "
+    p = _bash(f"ros2run hyper_nav_workbench run_graph --scenario {install}/hyper_nav_fix_relay/{SCENARIO} "
               f"--record {bag} --report --set duration_s=12 --set report.skip_s=4 "
               f"--set monitor.startup_timeout_s=180", install, timeout=900)
     assert p.returncode == 0 and "VERDICT: PASS" in p.stdout, p.stdout[-4000:] + p.stderr[-3000:]

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 import yaml
 
-from hyper_nav_sim import import_data
-from hyper_nav_sim.core.bag import deserialize, read_bag
+from hyper_nav_workbench import import_data
+from hyper_nav_workbench.core.bag import deserialize, read_bag
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.testing import play_into_fusion
+from hyper_nav_workbench.testing import play_into_fusion
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location(
-    "hyper_nav_gnss_real_data", REPO / "src" / "hyper_nav_filter" / "test" / "core" / "gnss" / "_real_data.py")
+    "hyper_nav_gnss_real_data", REPO / "src" / "hyper_nav_gnss" / "test" / "formats" / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rd)
 

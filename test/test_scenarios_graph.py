@@ -4,9 +4,9 @@ publish over DDS and are recorded."""
 import numpy as np
 import pytest
 
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import delivery_check, load_run
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import delivery_check, load_run
 
 pytestmark = pytest.mark.graph
 
@@ -62,7 +62,7 @@ def test_fusion_node_runs_the_paper_filter_configurations(tmp_path, scenario, du
     """The fusion node takes the scenario's filter configuration as ROS
     parameters (state blocks, lever-arm model, LCI frame) and flies it live."""
     from hyper_nav_sim.core.scenario import load_scenario
-    from hyper_nav_sim.core.scoring import errors, states_from_msgs, summarize
+    from hyper_nav_workbench.core.scoring import errors, states_from_msgs, summarize
     bag, nodes = fly(tmp_path, scenario, duration_s=duration_s, **{"graph.real_time_factor": rtf})
     assert "fusion" in nodes
     run = load_run(bag)

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from hyper_nav_filter.conversions import stamp_to_s
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import quat_xyzw_to_C
-from hyper_nav_sim import run_plots
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.core.scoring import errors, states_from_msgs
+from hyper_nav_workbench import run_plots
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.core.scoring import errors, states_from_msgs
 
 pytestmark = pytest.mark.graph
 
@@ -121,7 +121,7 @@ def test_recorded_bag_as_a_foxglove_mcap_file(recorded_run, tmp_path):
 
     from mcap.reader import make_reader
 
-    from hyper_nav_sim.foxglove_view import main
+    from hyper_nav_workbench.foxglove_view import main
     out = tmp_path / "view.mcap"
     assert main(["--bag", str(recorded_run["bag"]), "--out", str(out)]) == 0
     counts, first_err = {}, None

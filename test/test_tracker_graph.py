@@ -9,11 +9,11 @@ from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix
 
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.core.tracking import params_store
-from hyper_nav_filter.core.tracking.tracker import Tracker
+from hyper_nav_filter.core.target_tracking import params_store
+from hyper_nav_filter.core.target_tracking.tracker import Tracker
 from hyper_nav_sim.core.tracking_setup import radar_epochs, radar_measurements, scenario_track, tracker_config
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.testing import TopicCollector
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.testing import TopicCollector
 
 pytestmark = pytest.mark.graph
 DURATION_S = 40.0

@@ -13,9 +13,9 @@ import pytest
 from hyper_nav_aiding.offline import run_virtual_offline
 from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
 from hyper_nav_filter.conversions import stamp_to_s
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.graph import Graph
-from hyper_nav_sim.report import delivery_check, load_run
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.graph import Graph
+from hyper_nav_workbench.report import delivery_check, load_run
 
 pytestmark = pytest.mark.graph
 

@@ -15,12 +15,13 @@ import pytest
 import yaml
 from tf2_msgs.msg import TFMessage
 
-from hyper_nav_sim import import_data, repro_walk
-from hyper_nav_sim.core.bag import deserialize, read_bag
-from hyper_nav_sim.core.importer import columns, gnss_raw
+from hyper_nav_workbench import import_data
+from hyper_nav_repro.walk import reproduce as repro_walk
+from hyper_nav_workbench.core.bag import deserialize, read_bag
+from hyper_nav_workbench.core.importer import columns, gnss_raw
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.spp import default_data_dir
-from hyper_nav_sim.testing import play_into_fusion
+from hyper_nav_workbench.spp import default_data_dir
+from hyper_nav_workbench.testing import play_into_fusion
 
 INPUTS = ["/imu/data_raw", "/gnss/raw", "/gnss/ephemeris"]
 SEGMENTS = [pytest.param(15.0, 1.0, id="first_15s_real_time"),

@@ -66,6 +66,6 @@ if [ ! -f install/.stamp ] || [ -n "$(find src -newer install/.stamp -type f -pr
   ( source "$VENV/bin/activate" && set +u && source install/setup.bash && \
     { python -m hyper_nav_filter.core.warmup ENU & e=$!; \
       { python -m hyper_nav_filter.core.warmup LCI && \
-        python -c "from hyper_nav_sim.core.bag_arrays import warm_up; warm_up()"; } & l=$!; \
+        python -c "from hyper_nav_workbench.core.bag_arrays import warm_up; warm_up()"; } & l=$!; \
       wait $e && wait $l; } )
 fi

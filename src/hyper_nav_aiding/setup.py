@@ -23,7 +23,7 @@ setup(
             "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
             "lever_arm_node = hyper_nav_aiding.nodes.lever_arm_node:main",
         ],
-        # the aiding nodes, declared to the launcher and the scenario loader (hyper_nav_sim.core.aiding_nodes)
+        # the aiding nodes, declared to the launcher and the scenario loader (hyper_nav_filter.aiding_nodes)
         "hyper_nav.aiding_nodes": [
             "geomag = hyper_nav_aiding.descriptors:GEOMAG",
             "lever_arm = hyper_nav_aiding.descriptors:LEVER_ARM",

@@ -30,6 +30,8 @@ setup(
         "repro_aided_blackout = hyper_nav_repro.aided_tracking.reproduce_blackout:main",
         # seed 002's L-EKF parameter set (make train-lekf)
         "train_lekf = hyper_nav_repro.seed002.train_lekf:main",
+        # the walk_0827 recording: TC / LC / SPP against RTK (make repro-walk)
+        "repro_walk = hyper_nav_repro.walk.reproduce:main",
         # issue 39: design studies (LinCov error budget and grade sweep; LinCov vs Monte Carlo)
         "study_lincov = hyper_nav_repro.studies.lincov_budget:main",
         "study_lincov_mc = hyper_nav_repro.studies.lincov_mc:main",

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from hyper_nav_filter.conversions import GNSS_SYSTEMS, s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import quat_xyzw_to_C
-from hyper_nav_filter.core.gnss.ephemeris import C_MPS, SECONDS_PER_WEEK
-from hyper_nav_filter.core.gnss.propagation import CARRIER_HZ
+from hyper_nav_gnss.orbits.ephemeris import C_MPS, SECONDS_PER_WEEK
+from hyper_nav_gnss.corrections.propagation import CARRIER_HZ
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 
 SYSTEM_CODES = {s: code for code, s in GNSS_SYSTEMS.items()}      # 'G' -> 1 (SYSTEM_GPS), 'C' -> 3

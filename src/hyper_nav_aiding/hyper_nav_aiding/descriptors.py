@@ -1,5 +1,5 @@
 """This package's aiding nodes, declared to the launcher and the scenario
-loader (``hyper_nav_sim.core.aiding_nodes``; the ``hyper_nav.aiding_nodes``
+loader (``hyper_nav_filter.aiding_nodes``; the ``hyper_nav.aiding_nodes``
 entry points in ``setup.py``). Each names its executable, the scenario block
 it reads with the block's validator, its inputs and outputs, and writes its
 ROS parameters from a scenario with the same helpers (``flat_parameters``,
@@ -9,7 +9,7 @@ process that loads a scenario reads them). No rclpy here.
 """
 from __future__ import annotations
 
-from hyper_nav_sim.core.aiding_nodes import AidingNode, filter_parameters, flat_parameters, output_deadline_s
+from hyper_nav_filter.aiding_nodes import AidingNode, filter_parameters, flat_parameters, output_deadline_s
 
 PACKAGE = "hyper_nav_aiding"
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import quat_xyzw_to_C
 from hyper_nav_filter.core.measurements import HorizontalFix, PositionFix
 

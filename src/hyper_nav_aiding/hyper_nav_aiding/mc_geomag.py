@@ -1,5 +1,5 @@
 """The geomagnetic aiding node's logic in a Monte Carlo run
-(``hyper_nav_sim.core.mc_sources``; declared as ``GEOMAG.mc_feed``), no
+(``hyper_nav_workbench.core.mc_sources``; declared as ``GEOMAG.mc_feed``), no
 rclpy: what the graph's magnetometer node publishes and the geomag node
 does with it, against the run's own filter in the loop.
 

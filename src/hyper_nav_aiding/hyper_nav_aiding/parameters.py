@@ -8,8 +8,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from hyper_nav_filter.core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import ReceiverCorrections
+from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
+from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections
 
 from .core.virtual_gnss_config import VirtualGnssConfig, VirtualGnssConfigError
 
@@ -103,7 +103,7 @@ class VirtualGnssNodeParams:
 
 def from_scenario(sc) -> dict:
     """The node's parameters from a scenario (``hyper_nav_sim`` Scenario)."""
-    from hyper_nav_sim.core.aiding_nodes import flat_parameters
+    from hyper_nav_filter.aiding_nodes import flat_parameters
     cfg = VirtualGnssConfig.from_config(sc.data.get("virtual_gnss"))
     # every field of the validated block (defaults filled); the sigma is a string parameter ('elevation' or metres)
     out = flat_parameters({f.name: str(getattr(cfg, f.name)) if f.name == "pseudorange_sigma_m" else getattr(cfg, f.name)

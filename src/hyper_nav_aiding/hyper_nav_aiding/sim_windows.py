@@ -18,7 +18,7 @@ import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core import simulate
-from hyper_nav_sim.offline_fly import gnss_measurements
+from hyper_nav_workbench.offline_fly import gnss_measurements
 
 from .core.lever_arm.window import DataWindow
 
@@ -109,7 +109,7 @@ def model_consistent_window(window: DataWindow, cfg, freqs_radps, rng=None) -> D
     own open-loop prediction with ``freqs_radps`` (plus white noise of the
     measurements' covariances when ``rng`` is given). With these frequencies a
     replay's noise-free innovations are zero."""
-    from hyper_nav_filter.core import earth
+    from hyper_nav_gnss import earth
     from hyper_nav_filter.core.eskf import ErrorStateKF
     from hyper_nav_filter.core.measurements import ModelContext
 
@@ -176,7 +176,7 @@ def with_gnss_sigmas(window: DataWindow, pos_sigma_m: float, vel_sigma_mps: floa
     """The window with other GNSS measurement sigmas (per ENU axis): the
     covariances replaced and, with ``rng``, the fixes re-drawn around the
     noise-free ones of ``window`` (pass a noise-free window then)."""
-    from hyper_nav_filter.core import earth
+    from hyper_nav_gnss import earth
     out = []
     for m in window.gnss:
         if m.kind == "gnss_pos":

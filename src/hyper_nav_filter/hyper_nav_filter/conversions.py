@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core.gnss.ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris
-from .core.gnss.raw_to_pseudoranges import RawGnssEpoch
-from .core.gnss.signals import SYSTEM_OF_MSG
+from hyper_nav_gnss.orbits.ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris
+from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss.signals import SYSTEM_OF_MSG
 from .core.measurements import GnssPosition, GnssVelocity
 
 GNSS_SYSTEMS = dict(SYSTEM_OF_MSG)       # hyper_nav_msgs SYSTEM_GPS 1, _GAL 2, _BDS 3, _QZSS 5, _GLO 6
@@ -65,7 +65,7 @@ def _stamps_s(fields: dict) -> list[float]:
 
 def gnss_positions(fields: dict) -> list[GnssPosition]:
     """``gnss_position`` over a NavSatFix topic read into arrays ({dotted
-    field path: column}, ``hyper_nav_sim.core.bag_arrays``): the same values,
+    field path: column}, ``hyper_nav_workbench.core.bag_arrays``): the same values,
     message for message (no status or covariance-type checks here, as there)."""
     lat = np.deg2rad(fields["latitude"].astype(float)).tolist()
     lon = np.deg2rad(fields["longitude"].astype(float)).tolist()

@@ -1,5 +1,5 @@
 """The fusion core over a recording read into arrays (one array per message
-field, ``hyper_nav_sim.core.bag_arrays``), with the results of
+field, ``hyper_nav_workbench.core.bag_arrays``), with the results of
 ``offline.run_offline`` over the same messages, bit for bit (tested), fed
 in the same order (stamp order: a recording without late-input reports).
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .conversions import s_to_stamp_fields
-from .core import earth
+from hyper_nav_gnss import earth
 from .core.attitude import C_b_n_to_euler, C_to_quat_xyzw
 from .core.fusion import Solution
 from .core.state_layout import StateLayout

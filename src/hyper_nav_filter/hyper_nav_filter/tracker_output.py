@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from .conversions import s_to_stamp_fields
-from .core import earth
-from .core.tracking.tracker import Estimate
+from hyper_nav_gnss import earth
+from hyper_nav_filter.core.target_tracking.tracker import Estimate
 
 
 def _header(t_s: float, frame: str) -> dict:

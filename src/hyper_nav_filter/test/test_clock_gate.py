@@ -16,7 +16,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
 
 from hyper_nav_filter.clock_gate import TOPIC, AllowanceGate, ClockAllowance, DrainPace, InputDrain, InputsIdle, InputsReady
-from hyper_nav_sim.testing import isolated_domain_id
+from hyper_nav_workbench.testing import isolated_domain_id
 
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
 BEST_EFFORT = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)

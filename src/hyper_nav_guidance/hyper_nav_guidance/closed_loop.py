@@ -184,7 +184,7 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
         k = k1
     nav_err = 0.0
     if last_nav is not None:
-        from hyper_nav_filter.core import earth
+        from hyper_nav_gnss import earth
         tr = flight.truth(np.array([last_nav[0]]))
         d = earth.position_error_enu_m(last_nav[1], last_nav[2], last_nav[3],
                                        tr.lat_rad[0], tr.lon_rad[0], tr.alt_m[0])
@@ -234,7 +234,7 @@ def truth_epochs(sc: Scenario, n: int) -> np.ndarray:
 def bag_loop(bag) -> tuple[list, np.ndarray]:
     """The loop recorded in a bag: its commands [(t_nav_s, bank_rad, c_l)] (guidance/command) in stamp
     order, and the truth/state rows [lat, lon, alt, vE, vN, vU] in stamp order."""
-    from hyper_nav_sim.core.bag import deserialize, read_bag
+    from hyper_nav_workbench.core.bag import deserialize, read_bag
     cmds, truth = [], []
     for rec in read_bag(bag, topics=("/guidance/command", "/truth/state")):
         m = deserialize(rec.raw, rec.msgtype)

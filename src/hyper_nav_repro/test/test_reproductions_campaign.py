@@ -1,4 +1,4 @@
-"""Every reproduction is a campaign (hyper_nav_sim.campaign on dask): the
+"""Every reproduction is a campaign (hyper_nav_workbench.campaign on dask): the
 same tables with 1 and 2 workers (short modes), and a per-run JSON file
 for every run."""
 import json

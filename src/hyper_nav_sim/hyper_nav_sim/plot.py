@@ -25,7 +25,7 @@ def all_scenario_names() -> list[str]:
 def ground_track_deg(lon_rad, lat_rad) -> tuple[np.ndarray, np.ndarray]:
     """(lon, lat) in degrees for plotting, longitude in [-180, 180), with a
     break (NaN) where the track crosses 180 deg instead of a line across the map."""
-    from hyper_nav_filter.core.earth import wrap_lon_rad
+    from hyper_nav_gnss.earth import wrap_lon_rad
     lon = np.rad2deg(wrap_lon_rad(np.asarray(lon_rad, float)))
     lat = np.rad2deg(np.asarray(lat_rad, float))
     cut = np.flatnonzero(np.abs(np.diff(lon)) > 180.0) + 1

@@ -18,7 +18,7 @@ from collections import deque
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.mechanization import propagate
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import RectBivariateSpline
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
 LAYERS = ("F", "B_E", "B_N", "B_U", "dF_dh", "dB_E_dh", "dB_N_dh", "dB_U_dh")
 FORMAT_VERSION = 1
@@ -149,9 +149,9 @@ class MapSpec:
 
 def _wmm(decimal_year: float):
     """pygeomag with the WMM release valid at the date (the simulator's choice,
-    ``hyper_nav_sim.core.wmm``), so map and magnetometer use the same model."""
+    ``hyper_nav_filter.core.wmm``), so map and magnetometer use the same model."""
     from pygeomag import GeoMag
-    from hyper_nav_sim.core.wmm import release_for
+    from hyper_nav_filter.core.wmm import release_for
     return GeoMag(coefficients_file=release_for(decimal_year, "map.epoch_decimal_year").coefficients_file)
 
 

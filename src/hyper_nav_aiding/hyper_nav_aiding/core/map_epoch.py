@@ -31,7 +31,7 @@ field gradient (3-4.5 nT/km at seed 003's map). At a point x of the map::
     F_map = F_rel(t_m)(x, t_m)                         (map used as built)
           = |B_rel(t_m)(x, t_m) + (t_f - t_m) Bdot_rel(t_m)(x)|  (brought forward, (1))
 
-rel(t) is the WMM release valid at t (``hyper_nav_sim.core.wmm.release_for``,
+rel(t) is the WMM release valid at t (``hyper_nav_filter.core.wmm.release_for``,
 the simulated magnetometer's model), so b is the measured-minus-map bias
 the simulation produces beside its map error (the simulated magnetometer
 holds t_f over the whole flight: the stamp term, 8e-4 nT over seed 003's
@@ -102,7 +102,7 @@ class MapEpochError(MapError):
 
 # ---- the model: main field and secular variation of the release valid at a date --------------
 def _release(decimal_year: float, field: str):
-    from hyper_nav_sim.core.wmm import release_for
+    from hyper_nav_filter.core.wmm import release_for
     return release_for(decimal_year, field)
 
 

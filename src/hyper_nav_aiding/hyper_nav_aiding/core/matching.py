@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.linalg import cholesky, solve_triangular
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.frames.enu import EnuFrame
 from hyper_nav_filter.core.nav_state import NavState

@@ -5,9 +5,9 @@ record and an extrapolated vehicle (antenna) position r_e, velocity v_e and
 receiver clock (bias b, drift d):
 
     eq. 8   satellite orbit from the stored ephemeris (IS-GPS-200 Table 20-IV,
-            :func:`hyper_nav_filter.core.gnss.ephemeris.satellite_position_ecef`),
+            :func:`hyper_nav_gnss.orbits.ephemeris.satellite_position_ecef`),
             at the transmit time of the light-time solution, with the Sagnac
-            rotation (:func:`~hyper_nav_filter.core.gnss.geometry.satellite_states_at_reception`);
+            rotation (:func:`~hyper_nav_gnss.geometry.satellite_states_at_reception`);
     eq. 10  rho_GPS = |r_sat - r_e| + D_iono + D_tropo + D_satclk + D_noise,
     eq. 11  D_iono = Klobuchar (broadcast alpha, beta), D_tropo = Hopfield,
             D_satclk = af0 + af1 (t - toc) + af2 (t - toc)^2 (+ relativity),
@@ -22,7 +22,7 @@ satellite clock enters as -c (dt_sat - TGD) and the receiver clock as +b:
 
 (g the light-time rate factor, as in the simulator's observables). A
 consumer corrects it exactly like a real epoch
-(:mod:`hyper_nav_filter.core.gnss.raw_to_pseudoranges`): the satellite
+(:mod:`hyper_nav_filter.core.raw_to_pseudoranges`): the satellite
 clock and the broadcast delays cancel, leaving |r_sat - r_e| + b + n. eq. 9's
 rho_SINS is the filter's own predicted range.
 
@@ -35,11 +35,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.gnss.ephemeris import C_MPS
-from hyper_nav_filter.core.gnss.geometry import elevation_azimuth, satellite_states_at_reception
-from hyper_nav_filter.core.gnss.propagation import CARRIER_HZ, hopfield_delay_m, klobuchar_delay_m
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import RawGnssEpoch, ReceiverCorrections
+from hyper_nav_gnss import earth
+from hyper_nav_gnss.orbits.ephemeris import C_MPS
+from hyper_nav_gnss.geometry import elevation_azimuth, satellite_states_at_reception
+from hyper_nav_gnss.corrections.propagation import CARRIER_HZ, hopfield_delay_m, klobuchar_delay_m
+from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch, ReceiverCorrections
 
 
 def paper_noise_sigma_m(el_rad):

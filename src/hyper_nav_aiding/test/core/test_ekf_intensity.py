@@ -12,7 +12,7 @@ from hyper_nav_aiding.core.geomag_config import EkfParams
 from hyper_nav_aiding.core.geomag_map import GeomagMap, MapSpec
 from hyper_nav_aiding.core.matching import MagSample, NavPoint
 from hyper_nav_aiding.geomag_conversions import fix_measurement
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.fusion import make_filter
 from hyper_nav_filter.core.measurements import ModelContext

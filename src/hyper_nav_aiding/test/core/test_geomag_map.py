@@ -34,7 +34,7 @@ def test_spline_reproduces_pygeomag_and_its_gradient(small_map):
     lat, lon = 44.25, 110.25
     _, g = small_map.total_and_gradient(np.deg2rad(lat), np.deg2rad(lon), 26000.0)
     d = 1e-3
-    from hyper_nav_filter.core import earth
+    from hyper_nav_gnss import earth
     r_m, r_n = earth.radii(np.deg2rad(lat))
     fn = (gm.calculate(glat=lat + d, glon=lon, alt=26.0, time=2025.5).f
           - gm.calculate(glat=lat - d, glon=lon, alt=26.0, time=2025.5).f) / (2 * d * np.pi / 180 * (r_m + 26e3))

@@ -98,7 +98,7 @@ def test_navstate_acceleration_carries_the_truth_through_the_turn():
     from types import SimpleNamespace as NS
 
     from hyper_nav_aiding.geomag_conversions import nav_point
-    from hyper_nav_filter.core import earth
+    from hyper_nav_gnss import earth
     from hyper_nav_filter.core.attitude import C_to_quat_xyzw
     from hyper_nav_sim.core.scenario import load_scenario
     traj = load_scenario("seed003").trajectory()

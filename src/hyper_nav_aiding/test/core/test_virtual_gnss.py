@@ -10,7 +10,7 @@ from hyper_nav_aiding.core.virtual_gnss import VirtualGnss
 from hyper_nav_aiding.core.virtual_gnss_config import VirtualGnssConfig, VirtualGnssConfigError
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import RawPseudoranges, TightGnssInput, select_channels
+from hyper_nav_filter.core.raw_to_pseudoranges import RawPseudoranges, TightGnssInput, select_channels
 from hyper_nav_filter.core.nav_state import ImuSample
 
 

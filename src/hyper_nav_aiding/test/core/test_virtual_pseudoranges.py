@@ -6,8 +6,8 @@ import pytest
 
 from hyper_nav_aiding.core.virtual_pseudoranges import paper_noise_sigma_m, virtual_epoch
 from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
-from hyper_nav_filter.core.gnss.ephemeris import satellite_position_ecef
-from hyper_nav_filter.core.gnss.rinex_nav import read_rinex2_nav
+from hyper_nav_gnss.orbits.ephemeris import satellite_position_ecef
+from hyper_nav_gnss.formats.rinex_nav import read_rinex2_nav
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.gnss import broadcast_error as be
 from hyper_nav_sim.core.scenario import load_scenario

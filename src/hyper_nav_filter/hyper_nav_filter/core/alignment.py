@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import earth
+from hyper_nav_gnss import earth
 from .attitude import C_b_n_to_euler, C_to_quat_xyzw, euler_to_C_b_n, rotvec_to_C
 
 __all__ = ["ImuGrade", "Alignment", "AlignmentError", "level", "gyrocompass_heading", "sigma_of_mean", "align"]

@@ -57,7 +57,7 @@ the target NIS/dof 0.01 instead of 1 (observed only, 5 s) changed little
 * every recovery is counted per kind (``recoveries``), with the epoch of
   the last one and the inflation factor; the fusion node reports them on
   ``/diagnostics`` (``<kind>_lockout_recoveries``) and the verdict rules
-  (``hyper_nav_sim.core.verdict_rules``) name them.
+  (``hyper_nav_workbench.core.verdict_rules``) name them.
 
 The monitor's state is immutable (a new ``Watch`` per change) and travels in
 the filter snapshot, so re-processing a late event gives the same recoveries.

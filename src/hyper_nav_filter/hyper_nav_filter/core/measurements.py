@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from . import earth
+from hyper_nav_gnss import earth
 from .attitude import cross3, skew
 from .fast import gnss as fast_gnss
 from .nav_state import NavState

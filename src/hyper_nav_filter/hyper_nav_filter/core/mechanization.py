@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import earth
+from hyper_nav_gnss import earth
 from .attitude import cross3, orthonormalize, rotvec_to_C, skew
 from .nav_state import ImuSample, NavState
 

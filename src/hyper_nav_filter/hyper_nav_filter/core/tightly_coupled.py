@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import earth
+from hyper_nav_gnss import earth
 from .attitude import skew
 from .nav_state import NavState
 from .state_layout import StateLayout
 
-from .gnss.constants import C_MPS
+from hyper_nav_gnss.constants import C_MPS
 
 
 def sagnac_rotate(r_sat_e_m: np.ndarray, transit_s: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """Datasheet units to SI, converted once at the edge (STYLE pattern 6)."""
 import numpy as np
 
-from .earth import G0_MPS2
+from hyper_nav_gnss.earth import G0_MPS2
 
 DEG = np.pi / 180.0
 ARCMIN = DEG / 60.0

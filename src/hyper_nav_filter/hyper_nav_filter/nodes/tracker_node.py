@@ -8,7 +8,7 @@ accepted measurement, stamped with the measurement epoch, and
 the input u). The filter (``tracker.filter_type``: EKF, AEKF, LEKF, IMM) and
 every number come from the ``tracker.*`` parameters (the scenario's
 ``tracker:`` block, written by ``run_graph``); all math is in
-``hyper_nav_filter.core.tracking``.
+``hyper_nav_filter.core.target_tracking``.
 """
 from __future__ import annotations
 
@@ -20,9 +20,9 @@ from rclpy.node import Node
 from sensor_msgs.msg import NavSatFix
 
 from ..conversions import stamp_to_s
-from ..core.tracking import params_store
-from ..core.tracking.config import TrackerConfig, TrackerConfigError
-from ..core.tracking.tracker import Tracker
+from hyper_nav_filter.core.target_tracking import params_store
+from hyper_nav_filter.core.target_tracking.config import TrackerConfig, TrackerConfigError
+from hyper_nav_filter.core.target_tracking.tracker import Tracker
 from ..ros_util import all_matched, assign_fields, diagnostic_array, publisher_qos, run_node, subscriber_qos
 from ..tracker_output import track_fix_fields, track_vel_fields
 

@@ -28,8 +28,10 @@ from dataclasses import replace
 import numpy as np
 
 from .. import conversions
-from ..core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from ..core.gnss.raw_to_pseudoranges import MalformedGnssInput, ReceiverCorrections, TightGnssInput, check_raw_epoch
+from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
+from hyper_nav_filter.core.raw_to_pseudoranges import (
+    MalformedGnssInput, ReceiverCorrections, TightGnssInput, check_raw_epoch,
+)
 from ..core.params import BOOL, FLOAT, FLOATS, STR, STRS, ConfigError, ParamSpec, nonneg, positive
 from .base import SourceType, navsatfix_check, register
 
@@ -38,9 +40,9 @@ def real_receiver_model(p: dict, corr: ReceiverCorrections):
     """The real-signal receiver model of a gnss_raw source's parameters
     (``signals``, ``error_model``, ``elevation_mask_deg``, Klobuchar /
     troposphere settings); errors name the field."""
-    from ..core.gnss.combinations import parse_plan
-    from ..core.gnss.receiver_model import ReceiverModel
-    from ..core.gnss.weighting import ErrorModel
+    from hyper_nav_gnss.corrections.combinations import parse_plan
+    from hyper_nav_gnss.corrections.receiver_model import ReceiverModel
+    from hyper_nav_gnss.positioning.weighting import ErrorModel
     plan = {}
     for entry in p["signals"]:
         sysc, _, choices = str(entry).partition(":")

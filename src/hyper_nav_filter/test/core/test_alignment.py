@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.alignment import AlignmentError, ImuGrade, align, level
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, euler_to_C_b_n, rotvec_to_C
 

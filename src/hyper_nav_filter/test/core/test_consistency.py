@@ -5,7 +5,7 @@ filter's prior, the average NEES of position and velocity lies inside the
 import numpy as np
 from scipy.stats import chi2
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 
 N_RUNS, DURATION_S = 20, 60.0

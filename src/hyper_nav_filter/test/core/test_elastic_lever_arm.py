@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.elastic_lever_arm import ModalModel
@@ -18,7 +18,7 @@ from hyper_nav_filter.core.state_layout import ELASTIC_24
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.lever_arm import LeverArmConfig, normal_force_from_trajectory, simulate_modes
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.offline_fly import fly, per_axis_errors
+from hyper_nav_workbench.offline_fly import fly, per_axis_errors
 
 RATE_HZ = 50.0
 

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from hyper_nav_filter.core.gnss.ephemeris import select_ephemeris
-from hyper_nav_filter.core.gnss.rinex_nav import read_rinex2_nav, read_rinex3_nav
+from hyper_nav_gnss.orbits.ephemeris import select_ephemeris
+from hyper_nav_gnss.formats.rinex_nav import read_rinex2_nav, read_rinex3_nav
 
 REAL = Path(__file__).resolve().parents[5] / "shared" / "gnss-real"
 

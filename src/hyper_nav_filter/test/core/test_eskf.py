@@ -5,7 +5,7 @@ frames: test_frames_and_blocks.)"""
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.eskf import ErrorStateKF
 from hyper_nav_filter.core.measurements import GnssPosition, ModelContext

@@ -12,7 +12,7 @@ frames (issue 9, items 2-3):
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import euler_to_C_b_n
 from hyper_nav_filter.core.blocks import REGISTRY
 from hyper_nav_filter.core.blocks.lever_arm import modal_model

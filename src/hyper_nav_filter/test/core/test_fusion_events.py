@@ -4,14 +4,14 @@ the fixed output grid (no drift, no dropped epoch)."""
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.fusion import MODE_INS_ONLY, MODE_LOOSELY_COUPLED, FusionEngine
 from hyper_nav_filter.core.model_update import ModelUpdate
 from hyper_nav_filter.core.params import ConfigError
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_sim.offline_fly import gnss_measurements
+from hyper_nav_workbench.offline_fly import gnss_measurements
 
 NEW_FREQ = (20.1658, 55.3610, 113.0664)          # seed 000 Table 4 (the true values)
 

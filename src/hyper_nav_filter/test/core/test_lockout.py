@@ -10,9 +10,9 @@ import pytest
 from hyper_nav_filter.core import lockout
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.params import ConfigError
-from hyper_nav_sim.core import run_check, verdict_rules
+from hyper_nav_workbench.core import run_check, verdict_rules
 from hyper_nav_sim.core.scenario import load_with_settings
-from hyper_nav_sim.offline_fly import fly, per_axis_errors
+from hyper_nav_workbench.offline_fly import fly, per_axis_errors
 
 # the simulated IMU (a MEMS unit on a vibrating platform) and the data sheet the filter is given: 100x quieter
 TRUE_ARW_DEG_PER_SQRT_HR, TRUE_VRW_UG_PER_SQRT_HZ = 3.0, 1000.0
@@ -149,7 +149,7 @@ def test_recoveries_are_the_same_when_the_fixes_come_late():
     epoch) give the same recoveries and the same solution as on-time fixes."""
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_sim.core import simulate
-    from hyper_nav_sim.offline_fly import gnss_measurements
+    from hyper_nav_workbench.offline_fly import gnss_measurements
     sc = load_with_settings("default", ["duration_s=40", f"imu.gyro_arw_deg_per_sqrt_hr={TRUE_ARW_DEG_PER_SQRT_HR}",
                                         f"imu.accel_vrw_ug_per_sqrt_hz={TRUE_VRW_UG_PER_SQRT_HZ}",
                                         "gnss.pos_sigma_enu_m=[0.02,0.02,0.02]",

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.nav_state import NavState
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import Scenario, load_scenario, validate

@@ -2,7 +2,8 @@
 reproduce the truth (issue #2: drift well under 1 m over 300 s)."""
 import numpy as np
 
-from hyper_nav_filter.core import earth, mechanization
+from hyper_nav_gnss import earth
+from hyper_nav_filter.core import mechanization
 from hyper_nav_filter.core.attitude import attitude_error_n_rad
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core.scenario import load_scenario

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.fusion import FusionEngine
@@ -33,7 +33,7 @@ from hyper_nav_filter.core.mechanization import propagate
 from hyper_nav_filter.core.nav_state import ImuSample
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
-from hyper_nav_sim.offline_fly import fly_current, gnss_measurements
+from hyper_nav_workbench.offline_fly import fly_current, gnss_measurements
 
 DELAY_S = 0.2
 

@@ -13,19 +13,20 @@ import numpy as np
 import pytest
 
 from hyper_nav_filter import conversions
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.gnss.ephemeris import shift_ephemeris
-from hyper_nav_filter.core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import (EphemerisStore, MalformedGnssInput, RawGnssEpoch,
-                                                            ReceiverCorrections, TightGnssInput, raw_to_pseudoranges)
+from hyper_nav_gnss.orbits.ephemeris import shift_ephemeris
+from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
+from hyper_nav_filter.core.raw_to_pseudoranges import (
+    EphemerisStore, MalformedGnssInput, RawGnssEpoch, ReceiverCorrections, TightGnssInput, raw_to_pseudoranges,
+)
 from hyper_nav_filter.core.measurements import ModelContext
 from hyper_nav_filter.core.nav_state import NavState
 from hyper_nav_filter.core.state_layout import StateLayout
 from hyper_nav_filter.sources import make_sources, parse_sources
-from hyper_nav_sim.core.gnss.constellation import visible_satellites
-from hyper_nav_sim.core.gnss.nominal import gpst_from_date, nominal_constellation
+from hyper_nav_gnss.orbits.constellation import visible_satellites
+from hyper_nav_gnss.orbits.nominal import gpst_from_date, nominal_constellation
 from hyper_nav_sim.core.gnss.observables import compute_observables
 
 T0 = gpst_from_date("2023-01-01T04:00:00")                    # the seed 004 epoch

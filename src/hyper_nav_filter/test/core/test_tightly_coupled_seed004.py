@@ -21,7 +21,7 @@ import tempfile
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.land_vehicle import NonHolonomic, StandstillDetector

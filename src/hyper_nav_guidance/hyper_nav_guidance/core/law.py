@@ -48,7 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core import atmosphere, earth
+from hyper_nav_filter.core import atmosphere
+from hyper_nav_gnss import earth
 
 G0 = earth.G0_MPS2
 

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
 
 def odometry_to_geodetic(pos_map_m, q_b_map_xyzw, vel_b_mps, origin_lat_rad, origin_lon_rad, origin_alt_m):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_guidance.closed_loop import fly_on_truth, with_changes
 from hyper_nav_guidance.core.law import miss_enu_m
 from hyper_nav_guidance.core.nav_input import odometry_to_geodetic

@@ -12,7 +12,7 @@ time), an OCXO receiver clock (h0 8e-20, h_-2 4e-23) in every case. Cases:
 * ``unaided``: the 1 kHz tracking simulation, unaided loops (15 Hz / 1 ms PLL)
   and full-uncertainty search, through the sheath;
 * ``aided``: the same receiver aided by the fusion core's own state
-  (``aiding_source: nav_state``; :mod:`hyper_nav_sim.core.gnss.aiding`), the
+  (``aiding_source: nav_state``; :mod:`hyper_nav_gnss.receiver.aiding`), the
   filter's (never the truth): by default its current-time state
   (``FusionEngine.current``, the output predictor at the newest IMU sample,
   issue 35: the live ``nav/state``), with ``aiding="delayed"`` its released
@@ -92,7 +92,7 @@ def _flight(p, loss):
 
 def _aiding_sample(sol, layout):
     from hyper_nav_filter.core.attitude import C_to_quat_xyzw
-    from hyper_nav_sim.core.gnss.aiding import AidingSample
+    from hyper_nav_gnss.receiver.aiding import AidingSample
     s = sol.state
     return AidingSample(sol.t_s, float(s.lat_rad), float(s.lon_rad), float(s.alt_m), np.asarray(s.vel_enu_mps),
                         np.asarray(C_to_quat_xyzw(s.C_b_n)), np.asarray(sol.f_b_mps2), layout.describe(), sol.P)
@@ -116,8 +116,8 @@ def fly_aided(p, max_age_s=2.0, accel_sigma_mps2=0.2, aiding="current"):
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_filter.sources.router import SourceRouter
     from hyper_nav_repro.seed004.cases import CaseResult, imu_message
-    from hyper_nav_sim.core import scoring
-    from hyper_nav_sim.core.gnss.aiding import AidingInput
+    from hyper_nav_workbench.core import scoring
+    from hyper_nav_gnss.receiver.aiding import AidingInput
     from hyper_nav_sim.gnss_messages import fill_gnss_ephemeris
     sc, imu, run = (p.sc_filter_aided if aiding == "current" else p.sc), p.imu, p.aided_run
     cfg = sc.filter_config()

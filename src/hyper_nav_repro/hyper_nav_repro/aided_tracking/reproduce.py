@@ -5,11 +5,11 @@ Flight: scenario ``seed004`` (boost-glide, GPS L1, nominal constellation,
 elevation mask 7.5 deg), window ``--t0``..``--t1`` of the glide. Per satellite
 and 10 Hz epoch the line-of-sight geometry (satellite orbits from the nominal
 broadcast records, antenna truth), Doppler -(u . (v_sat - v_a))/lambda, and
-C/N0 from :class:`hyper_nav_sim.core.gnss.signal_env.SignalEnvironment` (top-mounted
+C/N0 from :class:`hyper_nav_gnss.receiver.signal_env.SignalEnvironment` (top-mounted
 antenna with the truth attitude) minus a plasma-sheath attenuation profile
 (scenario data, ``--blackout``: ramp up, hold, ramp down, dB vs time). Both
 receivers run the same 1 kHz tracking simulation
-(:mod:`hyper_nav_sim.core.gnss.tracking`) on 12 channels or fewer:
+(:mod:`hyper_nav_gnss.receiver.tracking`) on 12 channels or fewer:
 
 * unaided: the loops track the true Doppler (wide PLL 15 Hz / 1 ms); after a
   loss the search covers the Doppler the receiver cannot predict (vehicle speed
@@ -44,7 +44,7 @@ import time
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from hyper_nav_filter.core.gnss.constants import C_MPS
+from hyper_nav_gnss.constants import C_MPS
 F_L1_HZ = 1575.42e6
 LAMBDA_M = C_MPS / F_L1_HZ
 G0 = 9.80665
@@ -53,9 +53,9 @@ G0 = 9.80665
 def geometry(t_s, sc=None):
     """Per 10 Hz epoch: sat ids, elevation/azimuth [rad], Doppler [Hz], C_b_n,
     altitude, speed; satellites above the mask over the whole window."""
-    from hyper_nav_filter.core import earth
-    from hyper_nav_filter.core.gnss.ephemeris import satellite_position_ecef, system_time_s
-    from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
+    from hyper_nav_gnss import earth
+    from hyper_nav_gnss.orbits.ephemeris import satellite_position_ecef, system_time_s
+    from hyper_nav_gnss.geometry import elevation_azimuth
     from hyper_nav_sim.core import simulate
     from hyper_nav_sim.core.scenario import load_scenario
     sc = sc or load_scenario("seed004")
@@ -104,8 +104,8 @@ def run_receiver(kind, geo, cn0_10hz, seed, t_black_on, sigma_v0_mps=0.05, sigma
                  clk_drift_sigma_mps=0.05, tau_aid_s=20.0, pullup=None):
     """One receiver over the window; returns per-ms (decimated to 100 Hz) mode,
     estimated C/N0 and per-ms truth C/N0 at 100 Hz."""
-    from hyper_nav_sim.core.gnss import acquisition as acq
-    from hyper_nav_sim.core.gnss.tracking import ChannelBank, LoopConfig, aiding_doppler_error_hz
+    from hyper_nav_gnss.receiver import acquisition as acq
+    from hyper_nav_gnss.receiver.tracking import ChannelBank, LoopConfig, aiding_doppler_error_hz
     rng = np.random.default_rng(seed)
     t10 = geo["t"]
     n_ch = len(geo["sat_ids"])
@@ -233,8 +233,8 @@ def main(argv=None) -> int:
                          "peak 10 g)")
     ap.add_argument("--out", default="results/aided_tracking")
     a = ap.parse_args(argv)
-    from hyper_nav_sim.core.gnss.signal_env import PlasmaSheath, SignalEnvironment
-    from hyper_nav_sim.core.gnss.tracking import pll_threshold_dbhz, LoopConfig
+    from hyper_nav_gnss.receiver.signal_env import PlasmaSheath, SignalEnvironment
+    from hyper_nav_gnss.receiver.tracking import pll_threshold_dbhz, LoopConfig
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     t_on, ramp, hold, depth = a.blackout

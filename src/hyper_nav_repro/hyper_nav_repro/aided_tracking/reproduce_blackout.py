@@ -345,7 +345,7 @@ def plot(t, hpos, nees, band, runs, reacq, a, out, n):
     for c in a.cases:
         axs[0].plot(t, hpos[c].mean(axis=0), label=CASE_NAMES[c])
     r0 = runs[0]["aided"]
-    from hyper_nav_sim.core import scoring  # noqa: F401  (keeps the import graph of the cases)
+    from hyper_nav_workbench.core import scoring
     axs[0].fill_between(r0.t_s, 0, 3 * r0.pos_sigma_m, color="C2", alpha=0.15, label="aided, seed 0: 3 sigma (trace)")
     axs[0].axvspan(t_on, t_end, color="grey", alpha=0.1)
     axs[0].set_yscale("log")

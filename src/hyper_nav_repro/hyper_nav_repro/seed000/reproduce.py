@@ -254,8 +254,8 @@ def _run_json(r):
 
 
 def table5(setup: Setup, seeds, log, opts=None, out_dir=None) -> dict:
-    """Table 5 over seeds: every seed a run of the campaign engine (``hyper_nav_sim.campaign``, ``opts``)."""
-    from hyper_nav_sim import campaign
+    """Table 5 over seeds: every seed a run of the campaign engine (``hyper_nav_workbench.campaign``, ``opts``)."""
+    from hyper_nav_workbench import campaign
     seeds = list(seeds)
     done = campaign.run("repro_seed000", table5_run, [(setup, s) for s in seeds],
                         keys=[f"table5_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
@@ -385,7 +385,7 @@ def excited_world_run(job) -> dict:
 
 def excited_world_runs(setup: Setup, seeds, log, opts=None, out_dir=None) -> list:
     """``excited_world_run`` over seeds, every seed a campaign run."""
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     seeds = list(seeds)
     runs = campaign.run("repro_seed000", excited_world_run, [(setup, s) for s in seeds],
                         keys=[f"excited_world_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
@@ -401,7 +401,7 @@ def excited_runs(setup: Setup, seeds, log, opts=None, out_dir=None) -> list:
     grade fixes (the paper's r_G), GNSS moved onto the filter's own model at
     the true frequencies plus white noise of those sigmas (the perfect-model
     switch), DDPG as in Table 5; every seed a campaign run."""
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     seeds = list(seeds)
     runs = campaign.run("repro_seed000", excited_run, [(setup, s) for s in seeds],
                         keys=[f"excited_seed{s:03d}" for s in seeds], opts=opts or campaign.Options(),
@@ -456,7 +456,7 @@ def identifier_study(setup: Setup, seeds, log, opts=None, out_dir=None) -> dict:
     """``identifier_run`` over the true sets x seeds (campaign runs), with
     the fraction of windows where all three frequencies are within 3 of the
     reported sigma, and the RMS of error / sigma (1 for an honest sigma)."""
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     jobs = [(setup, name, s) for name in setup.ident_sets for s in seeds]
     runs = campaign.run("repro_seed000", identifier_run, jobs,
                         keys=[f"identifier_{name.replace(' ', '_')}_seed{s:03d}" for _, name, s in jobs],
@@ -541,7 +541,7 @@ def main(argv=None) -> int:
     ap.add_argument("--ident-seeds", type=int, default=10, help="seeds per true set of the identifier study (6)")
     ap.add_argument("--parts", default="1,2,3,4,5,6", help="parts to run (comma-separated; 4 and 5 need 3); "
                     "results of parts not run are kept from an existing JSON in --out")
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the seeds as a dask campaign
     args = ap.parse_args(argv)
     opts = campaign.options(args)

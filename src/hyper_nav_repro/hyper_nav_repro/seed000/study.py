@@ -18,7 +18,7 @@ import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.model_update import ModelUpdate
-from hyper_nav_sim.offline_fly import per_axis_errors
+from hyper_nav_workbench.offline_fly import per_axis_errors
 
 from hyper_nav_aiding.core.lever_arm.replay import FREQ_FIELD
 from hyper_nav_aiding.lever_arm_conversions import MODEL_NAME

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import sys
 
-from hyper_nav_sim import mc_campaign
+from hyper_nav_workbench import mc_campaign
 
 DEFAULTS = ["--scenario", "seed001", "--runs", "10", "--out", "results/seed001"]
 

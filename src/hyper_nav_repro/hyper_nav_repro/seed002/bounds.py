@@ -27,9 +27,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from hyper_nav_filter.core.tracking import augmented as au
-from hyper_nav_filter.core.tracking import flight_bounds as fb
-from hyper_nav_filter.core.tracking import glide_model as gm
+from hyper_nav_filter.core.target_tracking import augmented as au
+from hyper_nav_filter.core.target_tracking import flight_bounds as fb
+from hyper_nav_filter.core.target_tracking import glide_model as gm
 
 WINDOWS_S = (10.0, 30.0, 100.0, np.inf)
 TABLE_WINDOW_S = np.inf         # the windowed CRB shown in the table: one offset per flight (the others in table2.json)

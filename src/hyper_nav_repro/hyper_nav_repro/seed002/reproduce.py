@@ -32,12 +32,12 @@ import numpy as np
 
 from scipy.stats import chi2
 
-from hyper_nav_filter.core.tracking import augmented as au
-from hyper_nav_filter.core.tracking import glide_model as gm
-from hyper_nav_filter.core.tracking import params_store, pcrb
-from hyper_nav_filter.core.tracking.config import FILTER_TYPES as FILTERS
-from hyper_nav_filter.core.tracking.filters import build_filter, run_batch
-from hyper_nav_filter.core.tracking.tracker import Tracker
+from hyper_nav_filter.core.target_tracking import augmented as au
+from hyper_nav_filter.core.target_tracking import glide_model as gm
+from hyper_nav_filter.core.target_tracking import params_store, pcrb
+from hyper_nav_filter.core.target_tracking.config import FILTER_TYPES as FILTERS
+from hyper_nav_filter.core.target_tracking.filters import build_filter, run_batch
+from hyper_nav_filter.core.target_tracking.tracker import Tracker
 
 from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_sim.core.tracking_setup import initial_truth, radar_measurements, scenario_track, tracker_config
@@ -415,7 +415,7 @@ def main(argv=None) -> int:
     ap.add_argument("--short", action="store_true", help="3 runs, scenario 1, first 200 s (a few seconds)")
     ap.add_argument("--lekf", default=None, help="L-EKF parameter set (default: the scenario's tracker.lekf_parameters)")
     ap.add_argument("--out", default="results/seed002")
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers
     args = ap.parse_args(argv)
     nums = [int(s) for s in args.scenarios.split(",")]
@@ -429,7 +429,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     results = {}
     t0 = time.monotonic()
-    from hyper_nav_sim import campaign     # every scenario (its radar-noise runs batched in one scan) a campaign run
+    from hyper_nav_workbench import campaign
     done = campaign.run("repro_seed002", _scenario_run, [(num, runs, lekf, duration, timing, draws_s) for num in nums],
                         keys=[f"scenario{num}" for num in nums], opts=campaign.options(args), out_dir=out / "runs",
                         to_json=lambda r: r[0], warm_up=("hyper_nav_repro.seed002.reproduce",)).results

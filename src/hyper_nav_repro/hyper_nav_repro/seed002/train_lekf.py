@@ -21,10 +21,10 @@ import time
 import jax
 import numpy as np
 
-from hyper_nav_filter.core.tracking import glide_model as gm
-from hyper_nav_filter.core.tracking import params_store
-from hyper_nav_filter.core.tracking.lekf import Lekf, LekfArch, count_parameters
-from hyper_nav_filter.core.tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
+from hyper_nav_filter.core.target_tracking import glide_model as gm
+from hyper_nav_filter.core.target_tracking import params_store
+from hyper_nav_filter.core.target_tracking.lekf import Lekf, LekfArch, count_parameters
+from hyper_nav_filter.core.target_tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
 
 from . import training_set as td
 from hyper_nav_sim.core.scenario import load_scenario

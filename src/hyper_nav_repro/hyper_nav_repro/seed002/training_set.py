@@ -20,7 +20,7 @@ import multiprocessing
 
 import numpy as np
 
-from hyper_nav_filter.core.tracking import glide_model as gm
+from hyper_nav_filter.core.target_tracking import glide_model as gm
 
 from hyper_nav_sim.core.boost_glide import DynamicTrajectory
 from hyper_nav_sim.core.scenario import load_scenario

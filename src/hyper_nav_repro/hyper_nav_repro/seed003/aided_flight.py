@@ -33,7 +33,7 @@ import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import BaroHeight
-from hyper_nav_sim.core import scoring
+from hyper_nav_workbench.core import scoring
 
 from hyper_nav_aiding.core.geomag_aiding import GeomagAiding
 from hyper_nav_aiding.core.matching import MagSample, NavPoint

@@ -315,7 +315,7 @@ def main(argv=None) -> int:
     ap.add_argument("--level-reading", choices=("correlated", "white_uniform"), default=None)
     ap.add_argument("--attitude-reading", choices=("enu", "body"), default=None)
     ap.add_argument("--fixed-truth", action="store_true", help="fly the scenario's fixed initial/IMU errors")
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the seeds as a dask campaign
     ap.add_argument("--no-vector-bound", action="store_true")
     ap.add_argument("--short", action="store_true", help="60 s smoke run (tests)")
@@ -387,7 +387,7 @@ def _run(args) -> int:
     log(f"PCRB for {len(rc.levels_nT)} levels in {time.perf_counter() - t0:.1f} s")
 
     jobs = [SeedJob(str(sc0.path), overrides, rc, gcfg, map_path, s) for s in range(1, rc.seeds + 1)]
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     log(f"{len(jobs)} seeds on {campaign.where(campaign.options(args))}")
     t0 = time.perf_counter()
     results = campaign.run("repro_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],

@@ -28,7 +28,7 @@ from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.nav_state import ImuSample
 from hyper_nav_filter.sources.router import SourceRouter
-from hyper_nav_sim.core import scoring
+from hyper_nav_workbench.core import scoring
 from hyper_nav_sim.core.gnss.undetected_lock_loss import UndetectedLockLoss
 from hyper_nav_sim.gnss_messages import fill_gnss_ephemeris
 

@@ -85,8 +85,8 @@ def run_flight(job) -> dict:
 
 def run(seeds, worlds, variants, duration_s=None, overrides=None, log=print, opts=None, out_dir=None):
     """{world: {variant: {"per_seed": [stats...], "curves": CaseResult of the first seed}}}: every
-    (world, seed) a run of the campaign engine (``hyper_nav_sim.campaign``: dask, ``opts``)."""
-    from hyper_nav_sim import campaign
+    (world, seed) a run of the campaign engine (``hyper_nav_workbench.campaign``: dask, ``opts``)."""
+    from hyper_nav_workbench import campaign
     jobs = [(world, seed, tuple(variants), duration_s, overrides) for world in worlds for seed in seeds]
     res = campaign.run("repro_seed004", run_flight, jobs, keys=[f"{w}_seed{s:03d}" for w, s, *_ in jobs],
                        opts=opts or campaign.Options(), out_dir=out_dir,
@@ -183,7 +183,7 @@ def main(argv=None) -> int:
     ap.add_argument("--short", action="store_true",
                     help="test mode: 16 s flight, lock lost from 10 s, IMU at 50 Hz, 1 seed (or --seeds), realistic world, "
                          "cases a-d")
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     campaign.add_arguments(ap)             # --workers, --scheduler, --max-workers: the (world, seed) runs on dask
     a = ap.parse_args(argv)
     worlds, variants, seeds, dur = a.worlds.split(","), a.variants.split(","), list(range(1, (a.seeds or 3) + 1)), None

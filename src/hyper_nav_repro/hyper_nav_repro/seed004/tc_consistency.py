@@ -35,7 +35,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.stats import chi2
 
-from hyper_nav_sim.graph import apply_overrides
+from hyper_nav_workbench.graph import apply_overrides
 
 from hyper_nav_aiding.offline import prepare
 
@@ -57,9 +57,9 @@ def measure_range_errors(seeds, t_step_s: float = 5.0, duration_s: float = 500.0
     """Range errors the receiver's broadcast corrections leave on the seed 004
     flight (noise-free receiver at the true antenna and clock), per satellite,
     common mode per epoch removed: RMS and sqrt(E[(x(t+L) - x(t))^2]) at lags L."""
-    from hyper_nav_filter.core.gnss.ephemeris import C_MPS
-    from hyper_nav_filter.core.gnss.geometry import rot3
-    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import ReceiverCorrections, corrected_pseudoranges
+    from hyper_nav_gnss.orbits.ephemeris import C_MPS
+    from hyper_nav_gnss.geometry import rot3
+    from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections, corrected_pseudoranges
     from hyper_nav_sim.core import simulate
     from hyper_nav_sim.core.scenario import load_scenario
     lags = (5, 30, 60, 120, 240, 400)

@@ -2,7 +2,7 @@
 
 One linear covariance pass (``hyper_nav_filter.core.lincov``) gives the true
 1-sigma of the navigation error of the configured filter against the
-*simulated world's* error models (``hyper_nav_sim.core.lincov_setup``: the
+*simulated world's* error models (``hyper_nav_workbench.core.lincov_setup``: the
 truth is the simulator's IMU and GNSS models, not the filter's), the
 filter's own 1-sigma beside it, and the split of the final variance by
 error source. Writes ``budget.json`` (table at the chosen epochs, the
@@ -25,7 +25,7 @@ import pathlib
 
 import numpy as np
 
-from hyper_nav_sim.core import lincov_setup
+from hyper_nav_workbench.core import lincov_setup
 from hyper_nav_sim.core.scenario import apply_overrides, load_with_settings, set_fields
 from hyper_nav_sim.core.sensor_catalogue import IMU_GRADES, filter_tuning, grade_figures
 

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from hyper_nav_sim.core import lincov_check, lincov_setup
+from hyper_nav_workbench.core import lincov_check, lincov_setup
 from hyper_nav_sim.core.scenario import load_with_settings
 
 from .lincov_budget import parse_window

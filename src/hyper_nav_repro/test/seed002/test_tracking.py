@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from hyper_nav_filter.core.tracking import filters
-from hyper_nav_filter.core.tracking import glide_model as gm
-from hyper_nav_filter.core.tracking import params_store
-from hyper_nav_filter.core.tracking.config import TrackerConfig
-from hyper_nav_filter.core.tracking.lekf import Lekf, LekfArch
-from hyper_nav_filter.core.tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
+from hyper_nav_filter.core.target_tracking import filters
+from hyper_nav_filter.core.target_tracking import glide_model as gm
+from hyper_nav_filter.core.target_tracking import params_store
+from hyper_nav_filter.core.target_tracking.config import TrackerConfig
+from hyper_nav_filter.core.target_tracking.lekf import Lekf, LekfArch
+from hyper_nav_filter.core.target_tracking.training import TrackSet, TrainConfig, make_eval, noisy_batch, train
 from hyper_nav_repro.seed002 import reproduce as repro_seed002
 from hyper_nav_repro.seed002 import training_set as td
 
@@ -72,7 +72,7 @@ def _augmented_glide_nees(name, seed):
     """MC-averaged NEES (epochs 100-700 s) and RMS h, v of the augmented
     filter ``name`` (the scenario's tracker_augmented block) over 10 runs of
     radar noise and hand-over error on the 700 s glide above (simulated world)."""
-    from hyper_nav_filter.core.tracking import augmented as au
+    from hyper_nav_filter.core.target_tracking import augmented as au
     from hyper_nav_sim.core.scenario import load_scenario
     from hyper_nav_sim.core.tracking_setup import tracker_config
     sc = load_scenario("seed002_s1")
@@ -130,7 +130,7 @@ def test_augmented_imm_nees_in_band_on_the_reproduction_scenarios(num, stream):
     after 30 s inside the 95 % band [4.58, 7.61], and RMSE h, v within 1.5x
     of the unknown-maneuver PCRB's figures in results/seed002 (S1 501 m /
     294 m/s ... reversal 566 m / 275 m/s)."""
-    from hyper_nav_filter.core.tracking import augmented as au
+    from hyper_nav_filter.core.target_tracking import augmented as au
     from hyper_nav_sim.core.scenario import load_scenario
     from hyper_nav_sim.core.tracking_setup import tracker_config
     sc = load_scenario(repro_seed002.SCENARIOS[num])
@@ -277,7 +277,7 @@ def test_random_walk_pcrb_holds_on_draws_from_its_walks():
     1's mode sequence, first 300 s), flown by eq. 21, radar noise and
     hand-over error; the AUG-IMM over them stays above the bound averaged over
     the draws in every state, within the Monte Carlo's 95 % interval."""
-    from hyper_nav_filter.core.tracking import augmented as au
+    from hyper_nav_filter.core.target_tracking import augmented as au
     from hyper_nav_repro.seed002 import bounds
     from hyper_nav_sim.core.scenario import load_scenario
     from hyper_nav_sim.core.tracking_setup import initial_truth, scenario_track, tracker_config

@@ -94,7 +94,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hyper_nav_filter.core import atmosphere, earth
+from hyper_nav_filter.core import atmosphere
+from hyper_nav_gnss import earth
 
 from .boost_glide_config import Boost, FlightManeuver, FlightStart, Guidance, Vehicle, parse_flight
 from .trajectory import TruthSample, gauss_legendre_increments, inertial_rates

@@ -39,9 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
-from . import wmm
+from hyper_nav_filter.core import wmm
 from .fields import unknown_field
 MAP_ERROR_MODELS = ("correlated", "white_uniform")
 

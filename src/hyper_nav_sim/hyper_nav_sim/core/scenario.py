@@ -34,7 +34,7 @@ import yaml
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
-from . import aiding_nodes
+from hyper_nav_filter import aiding_nodes
 from .fields import suggestion, unknown_field
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
@@ -322,7 +322,7 @@ class Scenario:
         over), with the fields of an optional ``filter.initial_state`` block
         over it (any of position, velocity, attitude, initial bias and
         scale-factor values)."""
-        from hyper_nav_filter.core import earth
+        from hyper_nav_gnss import earth
         from hyper_nav_filter.core.attitude import rotvec_to_C
         from hyper_nav_filter.core.initial_state import state_values
         from hyper_nav_filter.core.nav_state import NavState
@@ -454,7 +454,7 @@ def validate(data, source: str = "<dict>") -> dict:
             raise ScenarioError(f"{source}: {exc}") from None
         _set(data, field, value)
     try:
-        from .wmm import WmmDateError, release_for
+        from hyper_nav_filter.core.wmm import WmmDateError, release_for
         release_for(data["magnetometer"]["epoch_decimal_year"])
     except WmmDateError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
@@ -568,7 +568,7 @@ def _validate_models(data: dict, source: str) -> None:
             except ValueError as exc:
                 raise ScenarioError(f"{source}: {exc}") from None
     if "tracker" in data:
-        from hyper_nav_filter.core.tracking.config import TrackerConfig
+        from hyper_nav_filter.core.target_tracking.config import TrackerConfig
         try:
             TrackerConfig.from_dict(data["tracker"])
         except ValueError as exc:

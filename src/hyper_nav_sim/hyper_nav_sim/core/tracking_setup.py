@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core.tracking import glide_model as gm
-from hyper_nav_filter.core.tracking.config import TrackerConfig
+from hyper_nav_filter.core.target_tracking import glide_model as gm
+from hyper_nav_filter.core.target_tracking.config import TrackerConfig
 
 from .imu_model import imu_epochs
 from .radar import EarlyWarningRadar

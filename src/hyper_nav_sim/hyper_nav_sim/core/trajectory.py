@@ -9,7 +9,7 @@ rate and specific force follow from the truth by the navigation equations,
     omega_ib_b = omega_nb_b + C_n_b (omega_ie_n + omega_en_n)
     f_b        = C_n_b (dv_n/dt + (2 omega_ie_n + omega_en_n) x v_n - g_n)
 
-with the Earth model of ``hyper_nav_filter.core.earth``, and are integrated to
+with the Earth model of ``hyper_nav_gnss.earth``, and are integrated to
 increments over each IMU interval by 4-point Gauss-Legendre quadrature, so an
 error-free IMU through the mechanization reproduces the truth.
 
@@ -26,7 +26,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
 # Which profile each maneuver type drives, and its shape: a "step" changes the
 # quantity by `delta` and holds it, a "bump" goes out by `delta` and back.
@@ -99,7 +99,7 @@ def inertial_rates(lat_rad, alt_m, vel_enu_mps, vdot_enu_mps2, C_b_n, omega_nb_b
         omega_ib_b = omega_nb_b + C_n_b (omega_ie_n + omega_en_n)
         f_b        = C_n_b (dv_n/dt + (2 omega_ie_n + omega_en_n) x v_n - g_n)
 
-    with the Earth model of ``hyper_nav_filter.core.earth``. Shared by every
+    with the Earth model of ``hyper_nav_gnss.earth``. Shared by every
     trajectory generator so that all of them are consistent with the ENU
     mechanization. Returns (omega_ib_b_radps, f_b_mps2), each (N, 3)."""
     w_ie = earth.omega_ie_n(lat_rad)

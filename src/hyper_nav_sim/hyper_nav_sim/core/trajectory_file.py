@@ -55,7 +55,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
 from .fields import check_keys, unknown_field
 from .trajectory import TruthSample, gauss_legendre_increments, inertial_rates
@@ -172,7 +172,7 @@ class FileTrajectory:
     @classmethod
     def from_bag(cls, path, topic: str, origin: dict | None = None, **kw) -> "FileTrajectory":
         """From a bag's ``hyper_nav_msgs/NavState`` or ``nav_msgs/Odometry`` topic (module docstring)."""
-        from .bag_arrays import read_arrays
+        from hyper_nav_workbench.core.bag_arrays import read_arrays
         bag = read_arrays(path, topics=[topic])
         if topic not in bag.topics:
             raise ValueError(f"{path}: no topic {topic!r} in the bag")

@@ -82,7 +82,7 @@ class GnssNode(ClockDrivenSensor):
     def _setup_aided(self, sc, trk, GnssEphemeris, GnssMeasurements):
         """Closed aiding loop: epochs computed at release with the held nav/state."""
         from hyper_nav_msgs.msg import NavState
-        from ..core.gnss.aiding import AidingInput
+        from hyper_nav_gnss.receiver.aiding import AidingInput
         from ..core.simulate import imu_epochs
         self.aiding = AidingInput(max_age_s=trk.aiding_max_age_s, accel_sigma_mps2=trk.aiding_accel_sigma_mps2)
         t = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
@@ -100,7 +100,7 @@ class GnssNode(ClockDrivenSensor):
         self.published.setdefault("gnss/vel", 0)
 
     def _on_nav_state(self, msg):
-        from ..core.gnss.aiding import AidingSample
+        from hyper_nav_gnss.receiver.aiding import AidingSample
         from hyper_nav_filter.conversions import stamp_to_s
         q = msg.q_b_enu
         n = int(msg.state_dim)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.ros_util import declare_params, run_node
 
 from ..core import simulate

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
-from hyper_nav_filter.core import earth, mechanization
+from hyper_nav_gnss import earth
+from hyper_nav_filter.core import mechanization
 from hyper_nav_filter.core.attitude import attitude_error_n_rad
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core.boost_glide import DynamicTrajectory

@@ -59,7 +59,7 @@ def test_gnss_noise_matches_sigma():
     traj = sc.trajectory()
     g = simulate.gnss_stream(sc, traj)
     tr = traj.truth(g.t_s)
-    from hyper_nav_filter.core import earth
+    from hyper_nav_gnss import earth
     d = earth.position_error_enu_m(g.lat_rad, g.lon_rad, g.alt_m, tr.lat_rad, tr.lon_rad, tr.alt_m)
     assert d.std(axis=0) == pytest.approx([5.0, 5.0, 5.0], rel=0.05)
     assert (g.vel_enu_mps - tr.vel_enu_mps).std(axis=0) == pytest.approx([0.1, 0.1, 0.1], rel=0.05)

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from hyper_nav_sim.core.scenario import ScenarioError, apply_overrides, find_scenario, load_scenario, validate
-from hyper_nav_sim.graph import fusion_parameters
+from hyper_nav_workbench.graph import fusion_parameters
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hyper_nav_sim.core import simulate
-from hyper_nav_sim.core.gnss.lock import LockConfig
+from hyper_nav_gnss.receiver.lock import LockConfig
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from hyper_nav_sim.plot import all_scenario_names, plot_scenario
 
@@ -91,7 +91,8 @@ def test_plot_command_writes_one_png_per_scenario(tmp_path):
 def test_error_free_imu_stays_on_the_seed003_truth_for_790_s():
     """Issue #3: error-free sensors through the ENU mechanization of #2 drift
     < 1 m over the 790 s seed 003 flight (100 Hz, incl. the 4 g U-turn)."""
-    from hyper_nav_filter.core import earth, mechanization
+    from hyper_nav_gnss import earth
+    from hyper_nav_filter.core import mechanization
     from hyper_nav_filter.core.nav_state import ImuSample, NavState
     sc = load_scenario("seed003")
     traj = sc.trajectory()
@@ -145,7 +146,7 @@ def test_imu_mounting_reaches_the_fusion_node_and_must_be_a_unit_quaternion(tmp_
     from hyper_nav_filter.output import static_transform_fields
     from hyper_nav_sim.core.imu_model import ImuErrors
     from hyper_nav_sim.core.scenario import ScenarioError
-    from hyper_nav_sim.graph import fusion_parameters
+    from hyper_nav_workbench.graph import fusion_parameters
     assert fusion_parameters(load_scenario("default"))["tf.imu_rotation_b_xyzw"] == [0.0, 0.0, 0.0, 1.0]
     q = [0.5, -0.5, 0.5, 0.5]
     f = tmp_path / "mounted.yaml"

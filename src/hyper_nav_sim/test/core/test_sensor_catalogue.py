@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hyper_nav_filter.core import units
-from hyper_nav_sim.core import allan
+from hyper_nav_workbench.core import allan
 from hyper_nav_sim.core.imu_model import ImuErrors, corrupt_increments
 from hyper_nav_sim.core.scenario import ScenarioError, load_with_settings
 from hyper_nav_sim.core.sensor_catalogue import IMU_GRADES, apply_grade, grade_figures

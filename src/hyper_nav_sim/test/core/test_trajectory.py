@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import C_b_n_to_euler
 from hyper_nav_sim.core.scenario import load_scenario
 

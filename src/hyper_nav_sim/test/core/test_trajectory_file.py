@@ -100,8 +100,8 @@ def _odometry_bag(path, traj, t_s, origin):
     """The flight as nav_msgs/Odometry: pose in the local ENU frame at ``origin``, twist in body axes."""
     from scipy.spatial.transform import Rotation
 
-    from hyper_nav_filter.core import earth
-    from hyper_nav_sim.core import bag
+    from hyper_nav_gnss import earth
+    from hyper_nav_workbench.core import bag
     from hyper_nav_sim.core.trajectory_file import C_n_e
     T = bag.typestore().types
     tr = traj.truth(t_s)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hyper_nav_sim.core.aiding_nodes import AidingNode, flat_parameters
+from hyper_nav_filter.aiding_nodes import AidingNode, flat_parameters
 
 FIELDS = ("enabled", "topic", "sigma_scale")
 

@@ -17,7 +17,7 @@ from collections import Counter, deque
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 
 from .config import LeverArmLearningConfig
 from .trigger import ResidualTrigger

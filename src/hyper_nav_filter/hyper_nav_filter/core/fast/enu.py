@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .. import earth
+from hyper_nav_gnss import earth
 from .linalg import mm3, orthonormalize, rotvec_to_C
 from .predict import couple, imu_terms, propagate_covariance
 

@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .. import earth
+from hyper_nav_gnss import earth
 from ..lci.gravity import A_E_M, GM_M3PS2, J2
 from .enu import gravity_up
 from .linalg import cross, orthonormalize, rotvec_to_C

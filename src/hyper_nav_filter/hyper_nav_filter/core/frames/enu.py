@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import earth, mechanization
+from hyper_nav_gnss import earth
+from hyper_nav_filter.core import mechanization
 from ..fast import enu as fast_enu
 from ..fast import nominal as fast_nominal
 from ..attitude import attitude_error_n_rad, rotvec_to_C, skew

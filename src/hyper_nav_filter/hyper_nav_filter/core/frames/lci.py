@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import earth
+from hyper_nav_gnss import earth
 from ..attitude import attitude_error_n_rad, orthonormalize, rotvec_to_C, skew
 from ..lci.frames import OMEGA_IE_RADPS, LaunchFrame
 from ..lci.gravity import gravity_gradient_a, make_gravity

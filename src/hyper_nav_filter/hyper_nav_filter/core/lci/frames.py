@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import earth
+from hyper_nav_gnss import earth
 
 OMEGA_IE_RADPS = earth.OMEGA_IE_RADPS
 

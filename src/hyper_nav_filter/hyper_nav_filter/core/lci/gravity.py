@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from .. import earth
+from hyper_nav_gnss import earth
 from .frames import LaunchFrame, C_n_e_vec
 
 GM_M3PS2 = earth.GM_M3PS2

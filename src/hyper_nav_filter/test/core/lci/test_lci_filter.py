@@ -13,14 +13,14 @@ import functools
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, rotvec_to_C
 from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.fusion import MODE_LOOSELY_COUPLED, FusionEngine, make_filter
 from hyper_nav_filter.core.measurements import BaroHeight, ModelContext
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core import simulate
-from hyper_nav_sim.offline_fly import fly, gnss_measurements as _measurements, per_axis_errors
+from hyper_nav_workbench.offline_fly import fly, gnss_measurements as _measurements, per_axis_errors
 from hyper_nav_sim.core.imu_model import ImuErrors
 from hyper_nav_sim.core.scenario import load_scenario
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, euler_to_C_b_n
 from hyper_nav_filter.core.lci.frames import LaunchFrame
 

@@ -2,7 +2,7 @@
 against the WGS-84 normal gravity (+ centrifugal) of core.earth."""
 import numpy as np
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.lci import gravity
 from hyper_nav_filter.core.lci.frames import LaunchFrame
 

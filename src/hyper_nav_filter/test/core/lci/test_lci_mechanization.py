@@ -4,7 +4,7 @@ climb to vertical, 500 Hz vertical launch), and the paper-form two-sample update
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_filter.core.attitude import attitude_error_n_rad, cross3
 from hyper_nav_filter.core.lci import mechanization as mech
 from hyper_nav_filter.core.lci.frames import LaunchFrame

@@ -9,18 +9,20 @@ elevation/azimuth, Klobuchar and Hopfield) live in
 :mod:`hyper_nav_filter.core.gnss`, which the filter's tightly coupled update
 uses too; they are re-exported here.
 """
-from hyper_nav_filter.core.gnss.ephemeris import (BDS_GEO_PRNS, C_MPS, BroadcastEphemeris, calendar_to_system_s,
-                                                  constants, gpst_s, satellite_position_ecef, select_ephemeris,
-                                                  shift_ephemeris, system_time_s)
-from hyper_nav_filter.core.gnss.rinex_nav import read_rinex2_nav, read_rinex3_nav
-from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
-from hyper_nav_filter.core.gnss.propagation import (CARRIER_HZ, F_B1I_HZ, F_L1_HZ, hopfield_delay_m,
-                                                    klobuchar_delay_m)
+from hyper_nav_gnss.orbits.ephemeris import (
+    BDS_GEO_PRNS, C_MPS, BroadcastEphemeris, calendar_to_system_s, constants, gpst_s, satellite_position_ecef,
+    select_ephemeris, shift_ephemeris, system_time_s,
+)
+from hyper_nav_gnss.formats.rinex_nav import read_rinex2_nav, read_rinex3_nav
+from hyper_nav_gnss.geometry import elevation_azimuth
+from hyper_nav_gnss.corrections.propagation import CARRIER_HZ, F_B1I_HZ, F_L1_HZ, hopfield_delay_m, klobuchar_delay_m
 
-from .constellation import Visibility, is_geosynchronous, synthetic_constellation, visible_satellites
-from .lock import LockConfig, LockModel, vehicle_doppler_hz
+from hyper_nav_gnss.orbits.constellation import (
+    Visibility, is_geosynchronous, synthetic_constellation, visible_satellites,
+)
+from hyper_nav_gnss.receiver.lock import LockConfig, LockModel, vehicle_doppler_hz
 from .observables import ClockModel, Observables, compute_observables, pr_sigma_m
-from .pvt import PvtSolution, solve_pvt
+from hyper_nav_gnss.positioning.pvt import PvtSolution, solve_pvt
 
 __all__ = [
     "BDS_GEO_PRNS", "C_MPS", "CARRIER_HZ", "F_B1I_HZ", "F_L1_HZ",

@@ -30,8 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from hyper_nav_filter.core.attitude import cross3
-from hyper_nav_filter.core.gnss.ephemeris import (BDS_GEO_PRNS, C_MPS, calendar_to_system_s, constants,
-                                                  satellite_position_ecef, select_ephemeris, system_time_s)
+from hyper_nav_gnss.orbits.ephemeris import (
+    BDS_GEO_PRNS, C_MPS, calendar_to_system_s, constants, satellite_position_ecef, select_ephemeris, system_time_s,
+)
 
 F_B1I_HZ, F_B3I_HZ = 1561.098e6, 1268.52e6
 BDS_IGSO_PRNS = frozenset({6, 7, 8, 9, 10, 13, 16, 38, 39, 40})

@@ -28,12 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 # receiver-side models live in the filter package (the filter needs them, and
 # it must not import the simulator); re-exported here for existing users
-from hyper_nav_filter.core.gnss.ephemeris import C_MPS
-from hyper_nav_filter.core.gnss.geometry import elevation_azimuth, satellite_states_at_reception
-from hyper_nav_filter.core.gnss.propagation import CARRIER_HZ, hopfield_delay_m, klobuchar_delay_m
+from hyper_nav_gnss.orbits.ephemeris import C_MPS
+from hyper_nav_gnss.geometry import elevation_azimuth, satellite_states_at_reception
+from hyper_nav_gnss.corrections.propagation import CARRIER_HZ, hopfield_delay_m, klobuchar_delay_m
 
 
 def pr_sigma_m(el_rad, a_m=0.11, b_m=0.13, el0_deg=4.0):

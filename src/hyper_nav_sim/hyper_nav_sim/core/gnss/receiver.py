@@ -39,16 +39,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.gnss.ephemeris import C_MPS, satellite_position_ecef, system_time_s
-from hyper_nav_filter.core.gnss.geometry import elevation_azimuth
-from hyper_nav_filter.core.gnss.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from hyper_nav_filter.core.gnss.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss import earth
+from hyper_nav_gnss.orbits.ephemeris import C_MPS, satellite_position_ecef, system_time_s
+from hyper_nav_gnss.geometry import elevation_azimuth
+from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
+from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
 
-from .lock import LockConfig, LockModel
-from .nominal import gpst_from_date, nominal_constellation
+from hyper_nav_gnss.receiver.lock import LockConfig, LockModel
+from hyper_nav_gnss.orbits.nominal import gpst_from_date, nominal_constellation
 from .observables import CARRIER_HZ, ClockModel, compute_observables, pr_sigma_m
-from .pvt import solve_pvt
+from hyper_nav_gnss.positioning.pvt import solve_pvt
 from .world import GnssWorld
 
 EPHEMERIS_BLOCK_S = 7200.0
@@ -199,7 +199,7 @@ class GnssReceiverConfig:
         if "gps_spares" in d:
             c.gps_spares = int(_num("gps_spares", d["gps_spares"], 0.0, 4.0))
         if d.get("tracking") is not None:
-            from .receiver_tracking import TrackingConfig
+            from hyper_nav_gnss.receiver.receiver_tracking import TrackingConfig
             if not isinstance(d["tracking"], dict):
                 raise ValueError(f"gnss.tracking: expected a mapping, got {d['tracking']!r}")
             c.tracking = TrackingConfig.from_dict(d["tracking"])
@@ -381,7 +381,7 @@ class ReceiverRun:
         self.trk = None
         if c.tracking is not None:
             from hyper_nav_filter.core import atmosphere
-            from .receiver_tracking import ReceiverTracking
+            from hyper_nav_gnss.receiver.receiver_tracking import ReceiverTracking
             self.trk = ReceiverTracking(c.tracking, rng)
             self.tr_all = trajectory.truth(t_ep)
             self.mach_all = (np.linalg.norm(self.tr_all.vel_enu_mps, axis=1)
@@ -409,7 +409,7 @@ class ReceiverRun:
         None (no fresh state, or no fix yet: the receiver's clock drift is unknown)."""
         if aiding is None or self.drift_hat is None:
             return None
-        from .aiding import doppler_residual_hz, los_sigmas
+        from hyper_nav_gnss.receiver.aiding import doppler_residual_hz, los_sigmas
         pred = aiding.predict(float(t))
         if pred is None:
             return None
@@ -468,8 +468,8 @@ class ReceiverRun:
                 locked = te.valid
                 cn0 = te.cn0_est_dbhz
                 # measurement errors of the loops: code error x chip length, Doppler error x lambda
-                from .acquisition import CHIP_LENGTH_CA_M
-                from .tracking import dll_thermal_sigma_chips, epoch_correlation_factor
+                from hyper_nav_gnss.receiver.acquisition import CHIP_LENGTH_CA_M
+                from hyper_nav_gnss.receiver.tracking import dll_thermal_sigma_chips, epoch_correlation_factor
                 pr = pr + te.code_err_chips * CHIP_LENGTH_CA_M
                 obs.pseudorange_rate_mps = obs.pseudorange_rate_mps + te.freq_err_hz * lam
                 # the DLL's thermal sigma at the estimated C/N0, grown for the loop error's correlation from one
@@ -486,12 +486,12 @@ class ReceiverRun:
                 # error's change over the interval); out of it (FLL / pull-in) a third of the FLL's range
                 # 1/(4 T). Without it the unaided receiver's rates after reacquisition (1-7 m/s off, seen)
                 # went in with 0.05 m/s sigmas.
-                from .tracking import pll_thermal_sigma_deg
+                from hyper_nav_gnss.receiver.tracking import pll_thermal_sigma_deg
                 aided_ch = (te.tracking_flags & 16) > 0
                 bn = np.where(aided_ch, c.tracking.loop.bn_pll_hz, trk.cfg_unaided.bn_pll_hz)
                 tco = np.where(aided_ch, c.tracking.loop.t_coh_s, trk.cfg_unaided.t_coh_s)
                 s_phi = np.deg2rad(pll_thermal_sigma_deg(np.nan_to_num(cn0, nan=0.0), bn, tco))
-                from .receiver_tracking import DOPPLER_AVG_S
+                from hyper_nav_gnss.receiver.receiver_tracking import DOPPLER_AVG_S
                 s_f = np.where(te.mode == 2, np.sqrt(2.0) * s_phi / (2 * np.pi * DOPPLER_AVG_S), 1.0 / (12.0 * tco))
                 obs.rate_sigma_mps = np.hypot(obs.rate_sigma_mps, s_f * lam)
         else:

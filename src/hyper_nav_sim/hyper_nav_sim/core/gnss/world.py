@@ -54,8 +54,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.gnss.propagation import hopfield_delay_m, klobuchar_delay_m
+from hyper_nav_gnss import earth
+from hyper_nav_gnss.corrections.propagation import hopfield_delay_m, klobuchar_delay_m
 
 from hyper_nav_filter.core.atmosphere import pressure_Pa
 from ..random_field import GaussianField

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
-from hyper_nav_filter.core.gnss import ephemeris as ep
-from hyper_nav_filter.core.gnss import rinex_nav
+from hyper_nav_gnss import earth
+from hyper_nav_gnss.orbits import ephemeris as ep
+from hyper_nav_gnss.formats import rinex_nav
 from hyper_nav_sim.core.gnss import observables as ob
-from hyper_nav_sim.core.gnss.constellation import visible_satellites
+from hyper_nav_gnss.orbits.constellation import visible_satellites
 
 _spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
 data = importlib.util.module_from_spec(_spec)
@@ -114,6 +114,6 @@ def test_stacked_light_time_equals_per_satellite(vis):
         np.testing.assert_allclose(r_s[k], r, rtol=0, atol=1e-6)
         np.testing.assert_allclose(v_s[k], v, rtol=0, atol=1e-9)
         assert cb[k] == pytest.approx(b, abs=1e-15) and cd[k] == pytest.approx(d, abs=1e-18)
-    from hyper_nav_filter.core.gnss.ephemeris import EphemerisStack
+    from hyper_nav_gnss.orbits.ephemeris import EphemerisStack
     with pytest.raises(ValueError, match="one system"):
         EphemerisStack(ephs)

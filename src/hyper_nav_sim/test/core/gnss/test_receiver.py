@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core import earth
+from hyper_nav_gnss import earth
 from hyper_nav_sim.core.gnss import observables as ob
-from hyper_nav_filter.core.gnss.ephemeris import calendar_to_system_s
+from hyper_nav_gnss.orbits.ephemeris import calendar_to_system_s
 from hyper_nav_sim.core.gnss.receiver import GnssReceiverConfig, GnssReceiverSim
 from hyper_nav_sim.core.trajectory import Maneuver, Start, Trajectory
 

@@ -9,12 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hyper_nav_filter.core.gnss.rinex_nav import read_rinex2_nav, read_rinex3_nav
-from hyper_nav_filter.core.gnss.propagation import (KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT,
-                                                    hopfield_delay_m, klobuchar_delay_m)
+from hyper_nav_gnss.formats.rinex_nav import read_rinex2_nav, read_rinex3_nav
+from hyper_nav_gnss.corrections.propagation import (
+    KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT, hopfield_delay_m, klobuchar_delay_m,
+)
 from hyper_nav_sim.core.gnss import broadcast_error as be
 from hyper_nav_sim.core.gnss import world as w
-from hyper_nav_sim.core.gnss.nominal import gpst_from_date, nominal_constellation
+from hyper_nav_gnss.orbits.nominal import gpst_from_date, nominal_constellation
 from hyper_nav_sim.core.world import WorldConfig
 
 _spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
@@ -236,9 +237,9 @@ def _range_errors(world_model: str, t_s):
     """Noise-free receiver on the seed 004 flight: what is left of each
     pseudorange after the receiver's corrections (broadcast clock/TGD,
     Klobuchar, Hopfield) at the true antenna position and clock, per epoch."""
-    from hyper_nav_filter.core.gnss.ephemeris import C_MPS
-    from hyper_nav_filter.core.gnss.geometry import rot3
-    from hyper_nav_filter.core.gnss.raw_to_pseudoranges import ReceiverCorrections, corrected_pseudoranges
+    from hyper_nav_gnss.orbits.ephemeris import C_MPS
+    from hyper_nav_gnss.geometry import rot3
+    from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections, corrected_pseudoranges
     from hyper_nav_sim.core import simulate
     from hyper_nav_sim.core.scenario import load_scenario
     sc = load_scenario("seed004")

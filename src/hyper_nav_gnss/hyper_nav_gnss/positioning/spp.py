@@ -1,0 +1,353 @@
+"""Single-point positioning (SPP) from real pseudoranges, with RAIM/FDE.
+
+Per epoch, weighted least squares (Gauss-Newton from the previous solution or
+the Earth's centre; RTKLIB manual E.6.1, Kaplan & Hegarty 2nd ed. 2.4.2):
+
+    rho_corr_j = |R3(we tau_j) r_j - r| + b + b_sys(j) + e_j,   e_j ~ N(0, sigma_j^2)
+
+with rho_corr from :mod:`.receiver_model` (signal plan, group delays,
+ionosphere-free pair or Klobuchar, Hopfield, satellite clock; the error
+model's variance as weight), r the antenna position (ECEF), b the receiver
+clock bias of the reference system (the first of G, E, C, J present) and
+b_sys the inter-system bias of each other system with satellites at the
+epoch (one unknown per system: per-epoch equivalent to per-system clocks).
+Satellites below the elevation mask are left out once the position is
+known. Fault detection and exclusion: :mod:`.raim` (global chi-square test
+at the false-alarm probability ``p_fa``, exclusion of the largest
+standardized residual, repeated while a degree of freedom remains).
+
+Outputs per epoch (:class:`SppSolution`): position, covariance, clock and
+inter-system biases, DOPs (geometry only, ENU at the solution), residuals
+and weights of every satellite, the excluded ones with their w-test, the
+test statistic and its threshold, and a status.
+"""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hyper_nav_gnss import earth
+from hyper_nav_gnss.positioning.raim import global_statistic, standardized_residuals, threshold
+from hyper_nav_gnss.corrections.receiver_model import (
+    ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges,
+)
+
+from hyper_nav_gnss.constants import C_MPS
+
+SYSTEM_ORDER = ("G", "E", "C", "J")
+BATCH_EPOCHS = 600              # epochs whose satellite orbits are evaluated together (:func:`states_batch`)
+
+
+@dataclass(frozen=True)
+class SppConfig:
+    """``p_fa``: false-alarm probability of the global test (1e-3: one epoch
+    in a thousand flagged when nothing is wrong); ``max_exclusions`` per
+    epoch; ``max_iterations`` and ``tol_m`` of Gauss-Newton;
+    ``warm_tol_m``: from a start near the antenna (the previous epoch, a
+    header position) the second step ends the iterations when it is shorter
+    than this (Gauss-Newton converges quadratically there: the solution is
+    then within 1e-6 m of the fully converged one on TLSE, tested; one
+    corrected-pseudorange evaluation an epoch saved)."""
+    model: ReceiverModel = field(default_factory=ReceiverModel)
+    p_fa: float = 1e-3
+    max_exclusions: int = 4
+    max_iterations: int = 12
+    tol_m: float = 1e-4
+    warm_tol_m: float = 1e-3
+    exclude: tuple = ()
+
+
+@dataclass
+class SppSolution:
+    t_s: float
+    t_rx_gpst_s: float
+    status: str                         # ok | fault_excluded | fault_not_excluded | no_test | too_few_satellites
+    pos_ecef_m: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    cov_ecef_m2: np.ndarray = field(default_factory=lambda: np.full((3, 3), np.nan))
+    clock_bias_m: float = np.nan
+    reference_system: str = ""
+    isb_m: dict = field(default_factory=dict)
+    dop: dict = field(default_factory=dict)
+    sat_ids: list = field(default_factory=list)
+    residual_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    sigma_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    el_rad: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    az_rad: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cn0_dbhz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    dual: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    used: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    excluded: list = field(default_factory=list)      # [(sat_id, w-test, T before exclusion)]
+    below_mask: list = field(default_factory=list)
+    test_statistic: float = np.nan
+    test_threshold: float = np.nan
+    dof: int = 0
+    iterations: int = 0
+
+    @property
+    def valid(self) -> bool:
+        return self.status in ("ok", "fault_excluded", "no_test")
+
+    @property
+    def n_used(self) -> int:
+        return int(np.count_nonzero(self.used))
+
+
+def _dops(H_geo, lat, lon) -> dict:
+    """GDOP, PDOP, HDOP, VDOP, TDOP of unit line-of-sight rows (ECEF) and
+    clock columns (geometry only)."""
+    try:
+        Q = np.linalg.inv(H_geo.T @ H_geo)
+    except np.linalg.LinAlgError:
+        return {}
+    C = earth.C_n_e(lat, lon)                       # ENU -> ECEF
+    Qp = C.T @ Q[:3, :3] @ C
+    return {"gdop": float(np.sqrt(np.trace(Q))), "pdop": float(np.sqrt(np.trace(Q[:3, :3]))),
+            "hdop": float(np.sqrt(Qp[0, 0] + Qp[1, 1])), "vdop": float(np.sqrt(Qp[2, 2])),
+            "tdop": float(np.sqrt(Q[3, 3]))}
+
+
+def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool):
+    """Gauss-Newton over the satellites of ``obs``; returns (x, cor, H, v, var,
+    mask_ok, iterations, systems) or None when singular."""
+    model = cfg.model
+    r = np.array(x0[:3], float)
+    b = float(x0[3]) if len(x0) > 3 else 0.0
+    ok = np.ones(len(obs), bool)
+    it = 0
+    x = None
+    warm = use_mask and np.linalg.norm(r) > 6.0e6          # started from a position near the antenna
+    for it in range(1, cfg.max_iterations + 1):
+        cor = corrected_at(obs, r, b, model, states)
+        if use_mask and np.linalg.norm(r) > 6.0e6:
+            ok = cor.el_rad >= model.elevation_mask_rad
+        idx = np.flatnonzero(ok)
+        systems = [s for s in systems_all if any(obs.choices[k].system == s for k in idx)]
+        m = 3 + len(systems)
+        if len(idx) < m:
+            return None
+        rs = np.einsum("kij,kj->ki", cor.rot[idx], cor.r_sat_e_m[idx])
+        d = r - rs
+        rho = np.linalg.norm(d, axis=1)
+        u = d / rho[:, None]
+        H = np.zeros((len(idx), m))
+        H[:, :3] = u
+        sys_of = [obs.choices[k].system for k in idx]
+        for j, s in enumerate(systems):
+            H[:, 3 + j] = [1.0 if q == s else 0.0 for q in sys_of]
+            if j > 0:
+                H[:, 3] = 1.0                      # reference clock on every row, ISB on its system's rows
+        if x is None or len(x) != m:
+            x = np.concatenate([r, [b], np.zeros(m - 4)])
+        pred = rho + H[:, 3:] @ x[3:]
+        v = cor.pr_m[idx] - pred
+        w = 1.0 / cor.var_m2[idx]
+        N = H.T @ (H * w[:, None])
+        try:
+            dx = np.linalg.solve(N, H.T @ (w * v))
+        except np.linalg.LinAlgError:
+            return None
+        x = x + dx
+        r, b = x[:3], x[3]
+        step = float(np.linalg.norm(dx[:3]))
+        if it > 1 and (step < cfg.tol_m or (warm and step < cfg.warm_tol_m)):
+            break
+    cor = corrected_at(obs, r, b, model, states)
+    rs = np.einsum("kij,kj->ki", cor.rot[idx], cor.r_sat_e_m[idx])
+    d = r - rs
+    rho = np.linalg.norm(d, axis=1)
+    v = cor.pr_m[idx] - (rho + H[:, 3:] @ x[3:])
+    return x, cor, H, v, cor.var_m2[idx], idx, it, systems
+
+
+def states_batch(obs_list) -> list:
+    """:func:`.receiver_model.states_from_pseudoranges` of many epochs at
+    once: the records of every epoch's satellites stacked per system and
+    orbit kind, each stack evaluated in one call (the same formulas, element
+    by element: equal to the per-epoch evaluation, tested), then split back
+    per epoch. Per-epoch evaluation was 8 small-array calls an epoch, 23 % of
+    the solve time in the profile."""
+    from hyper_nav_gnss.orbits.ephemeris import EphemerisStack, satellite_position_ecef, system_time_s
+    from hyper_nav_gnss.corrections.receiver_model import SatelliteStates
+    rows: dict = {}
+    for k, obs in enumerate(obs_list):
+        for j, e in enumerate(obs.ephemerides):
+            rows.setdefault((e.system, e.is_geo), []).append((k, j))
+    out_r = [np.empty((len(o), 3)) for o in obs_list]
+    out_v = [np.empty((len(o), 3)) for o in obs_list]
+    out_c = [np.empty(len(o)) for o in obs_list]
+    out_d = [np.empty(len(o)) for o in obs_list]
+    for (system, _), kj in rows.items():
+        stack = EphemerisStack([obs_list[k].ephemerides[j] for k, j in kj])
+        t_sys = np.array([float(system_time_s(system, obs_list[k].t_rx_gpst_s)) for k, _ in kj])
+        tau = np.array([obs_list[k].pr_m[j] for k, j in kj]) / C_MPS
+        c0 = satellite_position_ecef(stack, t_sys, -tau)[2]
+        r, v, c, d = satellite_position_ecef(stack, t_sys, -tau - c0)
+        for i, (k, j) in enumerate(kj):
+            out_r[k][j], out_v[k][j], out_c[k][j], out_d[k][j] = r[i], v[i], c[i], d[i]
+    return [SatelliteStates(a, b, c, d) for a, b, c, d in zip(out_r, out_v, out_c, out_d)]
+
+
+def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = None,
+                obs=None, states=None) -> SppSolution:
+    """SPP of one RawGnssEpoch with RAIM/FDE (module docstring). ``store``:
+    EphemerisStore or list of records; ``x0``: initial [x, y, z, b] (e.g.
+    the previous solution; None = the Earth's centre); ``obs`` / ``states``:
+    the epoch's satellite observations and states already formed (:func:`solve`)."""
+    counters = counters if counters is not None else Counter()
+    if obs is None:
+        obs = satellite_observations(raw, store, cfg.model, counters, exclude=cfg.exclude)
+    sol = SppSolution(float(raw.t_s), float(raw.t_rx_gpst_s), "too_few_satellites")
+    systems_all = [s for s in SYSTEM_ORDER if any(c.system == s for c in obs.choices)]
+    if len(obs) < 4:
+        counters["epochs_too_few_satellites"] += 1
+        return sol
+    if states is None:
+        states = states_from_pseudoranges(obs)
+    start = np.zeros(4) if x0 is None or not np.all(np.isfinite(x0)) else np.asarray(x0, float)[:4]
+    res = None
+    if x0 is None or not np.all(np.isfinite(x0)):
+        res = _least_squares(obs, states, start, systems_all, cfg, use_mask=False)   # from the centre first
+        if res is not None:
+            start = np.concatenate([res[0][:4]])
+    res = _least_squares(obs, states, start, systems_all, cfg, use_mask=True)
+    if res is None:
+        counters["epochs_too_few_satellites"] += 1
+        return sol
+    active = np.ones(len(obs), bool)
+    excluded = []
+    x, cor, H, v, var, idx, it, systems = res
+    below = [obs.sat_ids[k] for k in range(len(obs)) if k not in set(idx)]
+    while True:
+        dof = len(idx) - H.shape[1]
+        T = global_statistic(v, var)
+        if dof < 1:
+            status = "no_test"
+            thr = np.nan
+            break
+        thr = threshold(dof, cfg.p_fa)
+        if T <= thr:
+            status = "fault_excluded" if excluded else "ok"
+            break
+        if dof < 2 or len(excluded) >= cfg.max_exclusions:
+            status = "fault_not_excluded"
+            break
+        w = standardized_residuals(H, v, var)
+        j = int(np.argmax(np.abs(w)))
+        k = int(idx[j])
+        excluded.append((obs.sat_ids[k], float(w[j]), float(T)))
+        counters["raim_exclusions"] += 1
+        active[k] = False
+        sub = obs.subset(np.flatnonzero(active))
+        r2 = _least_squares(sub, states.subset(np.flatnonzero(active)), x[:4], [s for s in systems_all if any(c.system == s for c in sub.choices)],
+                            cfg, use_mask=True)
+        if r2 is None:
+            status = "fault_not_excluded"
+            break
+        x, cor, H, v, var, idx_sub, it, systems = r2
+        idx = np.flatnonzero(active)[idx_sub]
+    used = np.zeros(len(obs), bool)
+    used[idx] = True
+    r = x[:3]
+    lat, lon, _ = earth.ecef_to_geodetic(r)
+    W = 1.0 / var
+    N = H.T @ (H * W[:, None])
+    cov = np.linalg.inv(N)
+    # residuals and geometry of every satellite at the final solution (excluded and masked ones too)
+    # (without an exclusion the last Gauss-Newton evaluation is already this one: same satellites, x)
+    full = cor if not excluded else corrected_at(obs, r, x[3], cfg.model, states)
+    rs = np.einsum("kij,kj->ki", full.rot, full.r_sat_e_m)
+    rho = np.linalg.norm(r - rs, axis=1)
+    clk = np.array([x[3] + (x[3 + systems.index(c.system)] if c.system in systems and
+                            systems.index(c.system) > 0 else 0.0) for c in obs.choices])
+    sol = SppSolution(
+        float(raw.t_s), float(raw.t_rx_gpst_s), status, r.copy(), cov[:3, :3], float(x[3]), systems[0],
+        {s: float(x[3 + j]) for j, s in enumerate(systems) if j > 0}, _dops(H, lat, lon), obs.sat_ids,
+        full.pr_m - rho - clk, np.sqrt(full.var_m2), full.el_rad, full.az_rad, obs.cn0_dbhz[:, 0], obs.dual, used,
+        excluded, below, float(global_statistic(v, var)), float(thr), int(len(idx) - H.shape[1]), int(it))
+    counters[f"epochs_{status}"] += 1
+    return sol
+
+
+def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None) -> list[SppSolution]:
+    """SPP of every epoch, each started from the previous valid solution (the
+    first from ``x0`` = [x, y, z, b], e.g. a RINEX header's approximate
+    position; None = the Earth's centre)."""
+    counters = counters if counters is not None else Counter()
+    out = []
+    for a in range(0, len(epochs), BATCH_EPOCHS):
+        block = epochs[a:a + BATCH_EPOCHS]
+        obs_list = [satellite_observations(raw, store, cfg.model, counters, exclude=cfg.exclude) for raw in block]
+        states = states_batch(obs_list)
+        for raw, obs, st in zip(block, obs_list, states):
+            s = solve_epoch(raw, store, cfg, x0, counters, obs=obs, states=st if len(obs) >= 4 else None)
+            out.append(s)
+            if s.valid:
+                x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
+    return out
+
+
+@dataclass
+class SppVelocity:
+    """Receiver velocity from Doppler (pseudorange rates) at a solved epoch."""
+    t_s: float
+    vel_enu_mps: np.ndarray
+    cov_enu_m2ps2: np.ndarray
+    clock_drift_mps: float
+    n_used: int
+
+    @property
+    def sigma_enu_mps(self) -> np.ndarray:
+        return np.sqrt(np.diag(self.cov_enu_m2ps2))
+
+
+def solve_velocity(raw, store, cfg: SppConfig, sol: SppSolution, max_w: float = 5.0) -> SppVelocity | None:
+    """Weighted least squares velocity and clock drift from the pseudorange
+    rates of one epoch at its SPP position (Groves 2nd ed. eq. 9.142; RTKLIB
+    manual E.6.10 without the Sagnac rate term, < 5 mm/s here):
+
+        rate_j + c dts_dot_j - u_j . v_sat_j = -u_j . v_rx + d,
+
+    u_j the unit line of sight receiver -> satellite (ECEF), d the receiver
+    clock drift (m/s, one oscillator for every system). Satellites below the
+    elevation mask or without a Doppler are left out; the largest
+    standardized residual above ``max_w`` is removed while 5 remain. The
+    covariance is scaled by the unit-weight variance when that exceeds 1.
+    None when fewer than 5 satellites remain."""
+    if not sol.valid:
+        return None
+    obs = satellite_observations(raw, store, cfg.model, Counter(), exclude=cfg.exclude)
+    if len(obs) < 5:
+        return None
+    states = states_from_pseudoranges(obs)
+    cor = corrected_at(obs, sol.pos_ecef_m, sol.clock_bias_m, cfg.model, states)
+    ch0 = np.array([c.channels[0] for c in obs.choices], int)
+    rate = np.asarray(raw.rate_mps, float)[ch0] + C_MPS * cor.sat_clock_drift_sps
+    var = np.asarray(raw.rate_sigma_mps, float)[ch0] ** 2
+    rs = np.einsum("kij,kj->ki", cor.rot, cor.r_sat_e_m)
+    vs = np.einsum("kij,kj->ki", cor.rot, cor.v_sat_e_mps)
+    u = rs - sol.pos_ecef_m
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    y = rate - np.einsum("ki,ki->k", u, vs)
+    ok = np.isfinite(y) & np.isfinite(var) & (var > 0) & (cor.el_rad >= cfg.model.elevation_mask_rad)
+    idx = np.flatnonzero(ok)
+    while len(idx) >= 5:
+        H = np.hstack([-u[idx], np.ones((len(idx), 1))])
+        W = 1.0 / var[idx]
+        N = H.T @ (H * W[:, None])
+        x = np.linalg.solve(N, H.T @ (W * y[idx]))
+        v = y[idx] - H @ x
+        Q = np.linalg.inv(N)
+        s_v = np.sqrt(np.maximum(var[idx] - np.einsum("ki,ij,kj->k", H, Q, H), 1e-12))
+        w = np.abs(v) / s_v
+        j = int(np.argmax(w))
+        if w[j] > max_w and len(idx) > 5:
+            idx = np.delete(idx, j)
+            continue
+        dof = len(idx) - 4
+        f = max(1.0, float(v @ (W * v)) / dof) if dof > 0 else 1.0
+        lat, lon, _ = earth.ecef_to_geodetic(sol.pos_ecef_m)
+        R = earth.C_n_e(lat, lon).T                      # ECEF -> ENU
+        return SppVelocity(sol.t_s, R @ x[:3], R @ (Q[:3, :3] * f) @ R.T, float(x[3]), len(idx))
+    return None

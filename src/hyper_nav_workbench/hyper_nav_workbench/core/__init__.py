@@ -1,0 +1,1 @@
+"""Cores of the workbench: pure Python (no rclpy) - bags, import, scoring, Monte Carlo, live view."""

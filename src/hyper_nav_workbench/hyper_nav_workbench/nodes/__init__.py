@@ -1,0 +1,1 @@
+"""The workbench nodes: recorder, player, monitor, Foxglove bridge."""
