@@ -111,7 +111,7 @@ def micro(imu_hz: float, delay_s: float) -> dict:
     (medians: robust to a busy machine's preemptions)."""
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_sim.core import simulate
-    from hyper_nav_workbench.offline_fly import gnss_measurements
+    from hyper_nav_sim.core.simulate import gnss_measurements
     sc = scenario(0, 20.0, imu_hz)
     traj = sc.trajectory()
     imu = simulate.imu_stream(sc, traj)

@@ -43,7 +43,7 @@ import time
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
 from scratch import scratch_dir
-from hyper_nav_workbench.offline_fly import gnss_measurements
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 CONFIGS = [  # label, scenario, extra filter fields, scenario overrides, measurement kinds used (None: all)
     ("ENU 15 (default: 50 Hz IMU, GNSS 10 Hz pos+vel)", "default", {}, {}, None),

@@ -21,5 +21,7 @@ setup(
             "guidance_node = hyper_nav_guidance.nodes.guidance_node:main",
             "repro_guidance = hyper_nav_guidance.repro_guidance:main",
         ],
+        # pytest fixture for a user's guidance node in the loop (hyper_nav_guidance_loop)
+        "pytest11": ["hyper_nav_guidance = hyper_nav_guidance.pytest_plugin"],
     },
 )

@@ -18,7 +18,7 @@ import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core import simulate
-from hyper_nav_workbench.offline_fly import gnss_measurements
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 from .core.lever_arm.window import DataWindow
 

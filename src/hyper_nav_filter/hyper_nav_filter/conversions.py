@@ -8,7 +8,7 @@ and ``linear_acceleration`` = delta-v / dt (FLU body, rad/s and m/s^2, float64),
 so increments are recovered exactly as rate * (stamp - previous stamp).
 
 hyper_nav_msgs/GnssMeasurements and GnssEphemeris map to the tightly coupled
-core types (``core.gnss.raw_to_pseudoranges.RawGnssEpoch``,
+core types (``hyper_nav_gnss.observations.RawGnssEpoch``,
 ``core.gnss.ephemeris.BroadcastEphemeris``); system codes 1 (GPS) -> 'G',
 2 (Galileo) -> 'E', 3 (BDS) -> 'C', 5 (QZSS) -> 'J', 6 (GLONASS) -> 'R',
 others -> '?<code>' (dropped as unsupported downstream). The per-signal
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from hyper_nav_gnss.orbits.ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris
-from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss.observations import RawGnssEpoch
 from hyper_nav_gnss.signals import SYSTEM_OF_MSG
 from .core.measurements import GnssPosition, GnssVelocity
 

@@ -9,22 +9,8 @@ import time
 import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
-from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
-
-from hyper_nav_workbench.core import scoring
 from hyper_nav_sim.core import simulate
-
-
-def gnss_measurements(sc, traj, delay_s: float = 0.0, sort: bool = True) -> list:
-    """GNSS velocity and position fixes of the scenario as core measurements."""
-    g = simulate.gnss_stream(sc, traj)
-    meas = []
-    for i in range(len(g.t_s)):
-        meas.append(GnssVelocity(g.t_s[i], g.vel_enu_mps[i], np.diag(g.vel_sigma_enu_mps**2)))
-        meas.append(GnssPosition(g.t_s[i], g.lat_rad[i], g.lon_rad[i], g.alt_m[i], np.diag(g.pos_sigma_enu_m**2)))
-    if sort:
-        meas.sort(key=lambda m: (m.t_s, m.kind))
-    return meas
+from hyper_nav_workbench.core import scoring
 
 
 def fly(sc, cfg, decimate: int = 1, duration_s: float | None = None, release_every: int = 10):
@@ -39,7 +25,7 @@ def fly(sc, cfg, decimate: int = 1, duration_s: float | None = None, release_eve
     t = imu.t_s[decimate - 1:n:decimate]
     dth = imu.dtheta_b_rad[:n].reshape(-1, decimate, 3).sum(axis=1)
     dv = imu.dvel_b_mps[:n].reshape(-1, decimate, 3).sum(axis=1)
-    meas = gnss_measurements(sc, traj)
+    meas = simulate.gnss_measurements(sc, traj)
     eng = FusionEngine(cfg, sc.filter_initial_state())
     sols, j = [], 0
     t0 = time.perf_counter()
@@ -71,7 +57,7 @@ def fly_current(sc, cfg, delivery_delay_s: float = 0.0, duration_s: float | None
     traj = sc.trajectory()
     imu = simulate.imu_stream(sc, traj)
     n = len(imu.t_s) if duration_s is None else min(len(imu.t_s), int(round(duration_s / imu.dt_s)))
-    meas = [m for m in gnss_measurements(sc, traj)
+    meas = [m for m in simulate.gnss_measurements(sc, traj)
             if outage is None or not (outage[0] <= m.t_s < outage[1])]
     eng = FusionEngine(cfg, sc.filter_initial_state())
     cur, sols, wall, j = [], [], np.empty(n), 0

@@ -4,7 +4,7 @@ the state machine behind the ``virtual_gnss`` node, pure Python.
 Inputs (what the node subscribes to), in arrival order:
 
 * broadcast records (``gnss/ephemeris``): validated and stored while they
-  arrive (:class:`~hyper_nav_filter.core.raw_to_pseudoranges.EphemerisStore`,
+  arrive (:class:`~hyper_nav_gnss.observations.EphemerisStore`,
   newest per toe); a malformed record or one already expired at the latest
   receiver epoch (|t - toe| > 2 h GPS, 1 h BDS) is rejected with the reason
   and counted;
@@ -51,9 +51,8 @@ from collections import Counter
 import numpy as np
 
 from hyper_nav_gnss.orbits.ephemeris import C_MPS, system_time_s
-from hyper_nav_filter.core.raw_to_pseudoranges import (
-    EphemerisStore, MalformedGnssInput, RawGnssEpoch, ReceiverCorrections, check_raw_epoch, corrected_pseudoranges,
-)
+from hyper_nav_gnss.observations import EphemerisStore, MalformedGnssInput, RawGnssEpoch, check_raw_epoch
+from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections, corrected_pseudoranges
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_filter.core.tightly_coupled import sagnac_rotate
 

@@ -39,7 +39,8 @@ from hyper_nav_gnss import earth
 from hyper_nav_gnss.orbits.ephemeris import C_MPS
 from hyper_nav_gnss.geometry import elevation_azimuth, satellite_states_at_reception
 from hyper_nav_gnss.corrections.propagation import CARRIER_HZ, hopfield_delay_m, klobuchar_delay_m
-from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch, ReceiverCorrections
+from hyper_nav_gnss.observations import RawGnssEpoch
+from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections
 
 
 def paper_noise_sigma_m(el_rad):

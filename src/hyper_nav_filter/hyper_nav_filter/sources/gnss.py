@@ -29,9 +29,8 @@ import numpy as np
 
 from .. import conversions
 from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from hyper_nav_filter.core.raw_to_pseudoranges import (
-    MalformedGnssInput, ReceiverCorrections, TightGnssInput, check_raw_epoch,
-)
+from hyper_nav_gnss.observations import MalformedGnssInput, check_raw_epoch
+from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections, TightGnssInput
 from ..core.params import BOOL, FLOAT, FLOATS, STR, STRS, ConfigError, ParamSpec, nonneg, positive
 from .base import SourceType, navsatfix_check, register
 

@@ -11,7 +11,7 @@ import pytest
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_workbench.offline_fly import gnss_measurements
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 CASES = [("default", {}), ("default", {"state_blocks": ("att", "vel", "pos", "bg", "ba", "sg", "sa")}),
          ("default", {"mechanization_frame": "LCI"}), ("seed001", {}), ("seed000_elastic", {}),

@@ -9,7 +9,8 @@ from hyper_nav_filter.core.fusion import MODE_INS_ONLY, MODE_LOOSELY_COUPLED, Fu
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_workbench.offline_fly import gnss_measurements, per_axis_errors
+from hyper_nav_sim.core.simulate import gnss_measurements
+from hyper_nav_workbench.offline_fly import per_axis_errors
 
 
 def run(sc, duration_s=None, gnss_delay_epochs=0, shuffle_same_epoch=False, final=True):

@@ -46,7 +46,7 @@ from hyper_nav_filter.sources import make_sources
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
 from hyper_nav_workbench.graph import apply_overrides
-from hyper_nav_workbench.offline_fly import gnss_measurements
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 IMU = "imu"
 DELAY_S, WINDOW_S = 0.6, 1.2            # output delay and reprocess window of these tests

@@ -11,7 +11,7 @@ from hyper_nav_filter.core.model_update import ModelUpdate
 from hyper_nav_filter.core.params import ConfigError
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import load_scenario
-from hyper_nav_workbench.offline_fly import gnss_measurements
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 NEW_FREQ = (20.1658, 55.3610, 113.0664)          # seed 000 Table 4 (the true values)
 

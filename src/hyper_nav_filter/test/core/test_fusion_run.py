@@ -19,7 +19,7 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.model_update import ModelUpdate
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
-from hyper_nav_workbench.offline_fly import gnss_measurements
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 BLOCKS_21 = ("att", "vel", "pos", "bg", "ba", "sg", "sa")
 

@@ -149,7 +149,7 @@ def test_recoveries_are_the_same_when_the_fixes_come_late():
     epoch) give the same recoveries and the same solution as on-time fixes."""
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_sim.core import simulate
-    from hyper_nav_workbench.offline_fly import gnss_measurements
+    from hyper_nav_sim.core.simulate import gnss_measurements
     sc = load_with_settings("default", ["duration_s=40", f"imu.gyro_arw_deg_per_sqrt_hr={TRUE_ARW_DEG_PER_SQRT_HR}",
                                         f"imu.accel_vrw_ug_per_sqrt_hz={TRUE_VRW_UG_PER_SQRT_HZ}",
                                         "gnss.pos_sigma_enu_m=[0.02,0.02,0.02]",

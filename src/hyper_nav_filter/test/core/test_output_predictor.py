@@ -33,7 +33,8 @@ from hyper_nav_filter.core.mechanization import propagate
 from hyper_nav_filter.core.nav_state import ImuSample
 from hyper_nav_sim.core import simulate
 from hyper_nav_sim.core.scenario import apply_overrides, load_scenario
-from hyper_nav_workbench.offline_fly import fly_current, gnss_measurements
+from hyper_nav_workbench.offline_fly import fly_current
+from hyper_nav_sim.core.simulate import gnss_measurements
 
 DELAY_S = 0.2
 

@@ -18,9 +18,8 @@ from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_gnss.orbits.ephemeris import shift_ephemeris
 from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from hyper_nav_filter.core.raw_to_pseudoranges import (
-    EphemerisStore, MalformedGnssInput, RawGnssEpoch, ReceiverCorrections, TightGnssInput, raw_to_pseudoranges,
-)
+from hyper_nav_gnss.observations import EphemerisStore, MalformedGnssInput, RawGnssEpoch
+from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections, TightGnssInput, raw_to_pseudoranges
 from hyper_nav_filter.core.measurements import ModelContext
 from hyper_nav_filter.core.nav_state import NavState
 from hyper_nav_filter.core.state_layout import StateLayout

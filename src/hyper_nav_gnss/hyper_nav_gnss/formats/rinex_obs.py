@@ -19,7 +19,7 @@ code of every system; a system absent from the mapping is dropped). A
 requested code the header does not list is named in ``errors`` and counted
 (``missing_code_<S><code>``); the rest is read. Each (satellite, code) with
 a code observation C becomes one channel of a
-:class:`~.raw_to_pseudoranges.RawGnssEpoch`: pseudorange C [m], carrier
+:class:`~hyper_nav_gnss.observations.RawGnssEpoch`: pseudorange C [m], carrier
 phase L [cycles] (NaN when blank), Doppler D [Hz] (rate = -D x wavelength),
 C/N0 S [dB-Hz] (when ``SIGNAL STRENGTH UNIT`` is DBHZ or absent; NaN
 without an S observation), tracking flags PR_VALID, CP_VALID (L present and
@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from hyper_nav_gnss.orbits.ephemeris import calendar_to_system_s
-from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss.observations import RawGnssEpoch
 from hyper_nav_gnss.formats.rinex_file import RinexFormatError, read_rinex_text, rinex_version
 from hyper_nav_gnss.signals import C_MPS, has_frequency, frequency_hz
 from hyper_nav_gnss.positioning.weighting import code_sigma_m

@@ -12,7 +12,7 @@ from the u-blox interface description (F9 HPG 1.32 / X20 HPG 2.00, "UBX-RXM"):
   Hz), trkStat X1 (bit 0 prValid, 1 cpValid, 2 halfCyc, 3 subHalfCyc).
   Decoded with one numpy structured array per message (the same fields as
   pyubx2's full parse, which the tests compare with) into one
-  :class:`~.raw_to_pseudoranges.RawGnssEpoch` per message, one channel per
+  :class:`~hyper_nav_gnss.observations.RawGnssEpoch` per message, one channel per
   signal: ``locked`` = prValid; ``tracking_flags`` = PR_VALID (prValid),
   CP_VALID (cpValid), HALF_CYCLE (halfCyc), DOPPLER_VALID (a measurement was
   output); carrier phase NaN unless cpValid; rate = -Doppler x wavelength.
@@ -45,7 +45,7 @@ from pyubx2.exceptions import UBXStreamError
 
 from hyper_nav_gnss.orbits.ephemeris import SECONDS_PER_WEEK, BroadcastEphemeris
 from hyper_nav_gnss.formats.navmsg import bds_d1, gal_inav, gps_lnav
-from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss.observations import RawGnssEpoch
 from hyper_nav_gnss.signals import C_MPS, UBX_GNSS, UBX_SIGNALS, has_frequency, frequency_hz
 
 RAWX_ID = b"\x02\x15"

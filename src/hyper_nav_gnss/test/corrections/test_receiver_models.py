@@ -13,7 +13,8 @@ import pytest
 from hyper_nav_gnss.corrections.combinations import choose_signals, iono_free_coefficients, parse_plan
 from hyper_nav_gnss.orbits.ephemeris import BroadcastEphemeris
 from hyper_nav_gnss.positioning.raim import standardized_residuals, threshold
-from hyper_nav_filter.core.raw_to_pseudoranges import RangeBiasSlots, RawGnssEpoch
+from hyper_nav_filter.core.raw_to_pseudoranges import RangeBiasSlots
+from hyper_nav_gnss.observations import RawGnssEpoch
 from hyper_nav_gnss.corrections.receiver_model import ReceiverModel, satellite_observations
 from hyper_nav_gnss.corrections.signal_delays import group_delay_s
 from hyper_nav_gnss.signals import C_MPS, frequency_hz

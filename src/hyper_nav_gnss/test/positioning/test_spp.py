@@ -19,7 +19,7 @@ import pytest
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.positioning import spp
 from hyper_nav_gnss.corrections.combinations import parse_plan
-from hyper_nav_filter.core.raw_to_pseudoranges import EphemerisStore
+from hyper_nav_gnss.observations import EphemerisStore
 from hyper_nav_gnss.corrections.receiver_model import (
     ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges,
 )
@@ -142,7 +142,7 @@ def test_batched_satellite_states_equal_the_per_epoch_ones():
     solve_epoch chained by hand."""
     from collections import Counter as _C
 
-    from hyper_nav_filter.core.raw_to_pseudoranges import EphemerisStore
+    from hyper_nav_gnss.observations import EphemerisStore
     from hyper_nav_gnss.corrections.receiver_model import satellite_observations, states_from_pseudoranges
     from hyper_nav_gnss.formats.rinex_nav import read_rinex3_nav_records
     from hyper_nav_gnss.formats.rinex_obs import read_rinex_obs

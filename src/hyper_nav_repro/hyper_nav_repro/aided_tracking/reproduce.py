@@ -5,7 +5,7 @@ Flight: scenario ``seed004`` (boost-glide, GPS L1, nominal constellation,
 elevation mask 7.5 deg), window ``--t0``..``--t1`` of the glide. Per satellite
 and 10 Hz epoch the line-of-sight geometry (satellite orbits from the nominal
 broadcast records, antenna truth), Doppler -(u . (v_sat - v_a))/lambda, and
-C/N0 from :class:`hyper_nav_gnss.receiver.signal_env.SignalEnvironment` (top-mounted
+C/N0 from :class:`hyper_nav_sim.core.gnss.signal_env.SignalEnvironment` (top-mounted
 antenna with the truth attitude) minus a plasma-sheath attenuation profile
 (scenario data, ``--blackout``: ramp up, hold, ramp down, dB vs time). Both
 receivers run the same 1 kHz tracking simulation
@@ -233,7 +233,7 @@ def main(argv=None) -> int:
                          "peak 10 g)")
     ap.add_argument("--out", default="results/aided_tracking")
     a = ap.parse_args(argv)
-    from hyper_nav_gnss.receiver.signal_env import PlasmaSheath, SignalEnvironment
+    from hyper_nav_sim.core.gnss.signal_env import PlasmaSheath, SignalEnvironment
     from hyper_nav_gnss.receiver.tracking import pll_threshold_dbhz, LoopConfig
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)

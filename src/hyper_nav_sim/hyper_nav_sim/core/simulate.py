@@ -17,6 +17,8 @@ from .mag_model import MagnetometerErrors, simulate_magnetometer_T
 from .radar import EarlyWarningRadar
 from .scenario import Scenario
 
+from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
+
 
 @dataclass
 class ImuStream:
@@ -134,3 +136,15 @@ def radar_stream(sc: Scenario, traj):
     radar = EarlyWarningRadar(**cfg)
     t = imu_epochs(sc["duration_s"], radar.rate_hz)
     return radar.measure(traj, t, sc.rng("radar"))
+
+
+def gnss_measurements(sc, traj, delay_s: float = 0.0, sort: bool = True) -> list:
+    """GNSS velocity and position fixes of the scenario as core measurements."""
+    g = gnss_stream(sc, traj)
+    meas = []
+    for i in range(len(g.t_s)):
+        meas.append(GnssVelocity(g.t_s[i], g.vel_enu_mps[i], np.diag(g.vel_sigma_enu_mps**2)))
+        meas.append(GnssPosition(g.t_s[i], g.lat_rad[i], g.lon_rad[i], g.alt_m[i], np.diag(g.pos_sigma_enu_m**2)))
+    if sort:
+        meas.sort(key=lambda m: (m.t_s, m.kind))
+    return meas

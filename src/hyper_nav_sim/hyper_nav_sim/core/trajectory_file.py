@@ -83,6 +83,37 @@ def C_b_n_from_euler(roll, pitch, heading) -> np.ndarray:
     return Rotation.from_euler("ZYX", np.stack([np.pi / 2 - heading, -pitch, roll], -1)).as_matrix()
 
 
+class _TopicArrays:
+    """One topic of a bag as arrays by field path (``tp["pose.pose.position.x"]``), its header stamps and type.
+
+    Read with ``rosbags`` (its AnyReader takes the message definitions the bag carries, ours included): a
+    trajectory is a few thousand messages, so the workbench's columnar bag reader is not needed here and the
+    simulator does not depend on the workbench."""
+
+    def __init__(self, msgtype: str, msgs: list):
+        self.msgtype, self._msgs = msgtype, msgs
+        self.stamp_s = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs], float)
+
+    def __getitem__(self, path: str) -> np.ndarray:
+        out = []
+        for m in self._msgs:
+            for name in path.split("."):
+                m = getattr(m, name)
+            out.append(m)
+        return np.asarray(out, float)
+
+    @classmethod
+    def read(cls, path, topic: str) -> "_TopicArrays":
+        from rosbags.highlevel import AnyReader
+        path = pathlib.Path(path)
+        with AnyReader([path]) as reader:
+            cons = [c for c in reader.connections if c.topic == topic]
+            if not cons:
+                raise ValueError(f"{path}: no topic {topic!r} in the bag")
+            msgs = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=cons)]
+        return cls(cons[0].msgtype, msgs)
+
+
 class FileTrajectory:
     def __init__(self, t_s, lat_rad, lon_rad, alt_m, vel_enu_mps, C_b_n, vel_tolerance_mps: float = 0.5,
                  max_flow_angle_deg: float = 45.0, min_speed_mps: float = 30.0, source: str = "trajectory"):
@@ -172,11 +203,7 @@ class FileTrajectory:
     @classmethod
     def from_bag(cls, path, topic: str, origin: dict | None = None, **kw) -> "FileTrajectory":
         """From a bag's ``hyper_nav_msgs/NavState`` or ``nav_msgs/Odometry`` topic (module docstring)."""
-        from hyper_nav_workbench.core.bag_arrays import read_arrays
-        bag = read_arrays(path, topics=[topic])
-        if topic not in bag.topics:
-            raise ValueError(f"{path}: no topic {topic!r} in the bag")
-        tp = bag.topics[topic]
+        tp = _TopicArrays.read(path, topic)
         t = np.asarray(tp.stamp_s, float)
         src = f"{path} {topic}"
         if tp.msgtype == "hyper_nav_msgs/msg/NavState":

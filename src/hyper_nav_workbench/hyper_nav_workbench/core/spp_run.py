@@ -45,7 +45,7 @@ import yaml
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.positioning import spp as spp_core
 from hyper_nav_gnss.corrections.combinations import parse_plan
-from hyper_nav_filter.core.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
+from hyper_nav_gnss.observations import EphemerisStore, MalformedGnssInput
 from hyper_nav_gnss.corrections.receiver_model import ReceiverModel
 from hyper_nav_gnss.positioning.weighting import ErrorModel
 from hyper_nav_filter.core.params import ConfigError

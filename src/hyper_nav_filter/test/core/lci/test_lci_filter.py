@@ -20,7 +20,8 @@ from hyper_nav_filter.core.fusion import MODE_LOOSELY_COUPLED, FusionEngine, mak
 from hyper_nav_filter.core.measurements import BaroHeight, ModelContext
 from hyper_nav_filter.core.nav_state import ImuSample, NavState
 from hyper_nav_sim.core import simulate
-from hyper_nav_workbench.offline_fly import fly, gnss_measurements as _measurements, per_axis_errors
+from hyper_nav_workbench.offline_fly import fly, per_axis_errors
+from hyper_nav_sim.core.simulate import gnss_measurements as _measurements
 from hyper_nav_sim.core.imu_model import ImuErrors
 from hyper_nav_sim.core.scenario import load_scenario
 

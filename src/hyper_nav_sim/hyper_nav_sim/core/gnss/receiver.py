@@ -43,7 +43,7 @@ from hyper_nav_gnss import earth
 from hyper_nav_gnss.orbits.ephemeris import C_MPS, satellite_position_ecef, system_time_s
 from hyper_nav_gnss.geometry import elevation_azimuth
 from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
-from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss.observations import RawGnssEpoch
 
 from hyper_nav_gnss.receiver.lock import LockConfig, LockModel
 from hyper_nav_gnss.orbits.nominal import gpst_from_date, nominal_constellation
@@ -199,7 +199,7 @@ class GnssReceiverConfig:
         if "gps_spares" in d:
             c.gps_spares = int(_num("gps_spares", d["gps_spares"], 0.0, 4.0))
         if d.get("tracking") is not None:
-            from hyper_nav_gnss.receiver.receiver_tracking import TrackingConfig
+            from hyper_nav_sim.core.gnss.receiver_tracking import TrackingConfig
             if not isinstance(d["tracking"], dict):
                 raise ValueError(f"gnss.tracking: expected a mapping, got {d['tracking']!r}")
             c.tracking = TrackingConfig.from_dict(d["tracking"])
@@ -381,7 +381,7 @@ class ReceiverRun:
         self.trk = None
         if c.tracking is not None:
             from hyper_nav_filter.core import atmosphere
-            from hyper_nav_gnss.receiver.receiver_tracking import ReceiverTracking
+            from hyper_nav_sim.core.gnss.receiver_tracking import ReceiverTracking
             self.trk = ReceiverTracking(c.tracking, rng)
             self.tr_all = trajectory.truth(t_ep)
             self.mach_all = (np.linalg.norm(self.tr_all.vel_enu_mps, axis=1)
@@ -491,7 +491,7 @@ class ReceiverRun:
                 bn = np.where(aided_ch, c.tracking.loop.bn_pll_hz, trk.cfg_unaided.bn_pll_hz)
                 tco = np.where(aided_ch, c.tracking.loop.t_coh_s, trk.cfg_unaided.t_coh_s)
                 s_phi = np.deg2rad(pll_thermal_sigma_deg(np.nan_to_num(cn0, nan=0.0), bn, tco))
-                from hyper_nav_gnss.receiver.receiver_tracking import DOPPLER_AVG_S
+                from hyper_nav_sim.core.gnss.receiver_tracking import DOPPLER_AVG_S
                 s_f = np.where(te.mode == 2, np.sqrt(2.0) * s_phi / (2 * np.pi * DOPPLER_AVG_S), 1.0 / (12.0 * tco))
                 obs.rate_sigma_mps = np.hypot(obs.rate_sigma_mps, s_f * lam)
         else:

@@ -21,7 +21,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from hyper_nav_filter.core.raw_to_pseudoranges import RawGnssEpoch
+from hyper_nav_gnss.observations import RawGnssEpoch
 
 
 class UndetectedLockLoss:

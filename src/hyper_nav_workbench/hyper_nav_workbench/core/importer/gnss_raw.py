@@ -254,7 +254,7 @@ def _spp_setup(imp: "GnssImport"):
     out, as the filter does) and the default single-point configuration
     with the import's Klobuchar coefficients."""
     from hyper_nav_gnss.positioning import spp
-    from hyper_nav_filter.core.raw_to_pseudoranges import EphemerisStore, MalformedGnssInput
+    from hyper_nav_gnss.observations import EphemerisStore, MalformedGnssInput
     from hyper_nav_gnss.corrections.receiver_model import ReceiverModel
     store = EphemerisStore()
     for _, e in imp.ephemerides:

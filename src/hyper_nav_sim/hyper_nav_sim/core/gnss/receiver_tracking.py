@@ -45,7 +45,7 @@ import numpy as np
 from hyper_nav_gnss.constants import C_MPS
 
 from hyper_nav_gnss.receiver import acquisition as acq
-from hyper_nav_gnss.receiver.signal_env import SignalEnvironment
+from hyper_nav_sim.core.gnss.signal_env import SignalEnvironment
 from hyper_nav_gnss.receiver.tracking import (
     MODE_FLL, MODE_PLL, P_ACQ_CBIN, P_ACQ_DBIN, S_ACC, S_BI, S_BQ, S_BW, S_CELL, S_CN0E, S_COFF, S_DK, S_DMS,
     S_DSTAT, S_EPS, S_FNCO, S_FOFF, S_HAVEP, S_IC, S_LOCKT, S_MODE, S_MSB, S_MSC, S_NBLK, S_NCOLIM, S_PEN, S_Q, S_QC,

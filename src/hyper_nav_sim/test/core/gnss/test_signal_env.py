@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from hyper_nav_gnss.receiver.signal_env import (
+from hyper_nav_sim.core.gnss.signal_env import (
     AntennaPattern, PlasmaSheath, SignalEnvironment, off_boresight_rad, plasma_attenuation_db,
 )
 
