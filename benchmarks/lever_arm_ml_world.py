@@ -15,9 +15,9 @@ import argparse
 
 import numpy as np
 
-from hyper_nav_aiding.core.lever_arm import identifiers
-from hyper_nav_aiding.core.lever_arm.env import LeverArmFrequencyEnv
-from hyper_nav_aiding.sim_windows import SimulatedFlight, start_window
+from hyper_nav_aiding.lever_arm.core import identifiers
+from hyper_nav_aiding.lever_arm.core.env import LeverArmFrequencyEnv
+from hyper_nav_aiding.lever_arm.sim_windows import SimulatedFlight, start_window
 from hyper_nav_filter.core.elastic_lever_arm import TABLE4_FREQ_RADPS
 from hyper_nav_sim.core.scenario import load_scenario
 

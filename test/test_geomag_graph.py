@@ -10,11 +10,11 @@ field gradient, its variance) is the same to a small fraction of its sigma."""
 import numpy as np
 import pytest
 
-from hyper_nav_aiding.core.geomag_aiding import GeomagAiding
-from hyper_nav_aiding.core.geomag_config import GeomagConfig
-from hyper_nav_aiding.core.geomag_map import GeomagMap
-from hyper_nav_aiding.core.matching import LocalFrame
-from hyper_nav_aiding.geomag_conversions import mag_sample, nav_point
+from hyper_nav_aiding.geomag.core.geomag_aiding import GeomagAiding
+from hyper_nav_aiding.geomag.core.geomag_config import GeomagConfig
+from hyper_nav_aiding.geomag.core.geomag_map import GeomagMap
+from hyper_nav_aiding.geomag.core.matching import LocalFrame
+from hyper_nav_aiding.geomag.conversions import mag_sample, nav_point
 from hyper_nav_filter.conversions import stamp_to_s
 from hyper_nav_workbench.core.bag import deserialize, read_bag
 from hyper_nav_workbench.graph import Graph
@@ -74,7 +74,7 @@ def test_geomag_fixes_reach_the_fusion_filter_over_dds(tmp_path):
             (deserialize(r.raw, r.msgtype) for r in recs if r.topic == "/nav/delayed/state")}
     live = [deserialize(r.raw, r.msgtype) for r in recs if r.topic == "/geomag/fix"]
     cfg = GeomagConfig.from_dict({k: v for k, v in scenario.data["geomag"].items() if k != "reproduction"})
-    from hyper_nav_aiding.core.geomag_map import cached_map_path, load_map
+    from hyper_nav_aiding.geomag.core.geomag_map import cached_map_path, load_map
     aiding = GeomagAiding(cfg, load_map(cached_map_path(cfg.map, cfg.map_cache_dir), cfg.map))
     offline = []
     for m in mags:

@@ -18,10 +18,10 @@ from diagnostic_msgs.msg import DiagnosticArray
 from hyper_nav_msgs.msg import MatchQuality, NavState
 from sensor_msgs.msg import MagneticField, NavSatFix
 
-from hyper_nav_aiding.core.geomag_config import GeomagConfig
-from hyper_nav_aiding.core.geomag_map import GeomagMap, MapSpec
-from hyper_nav_aiding.core.map_epoch import map_epoch_offset
-from hyper_nav_aiding.core.matching import LocalFrame
+from hyper_nav_aiding.geomag.core.geomag_config import GeomagConfig
+from hyper_nav_aiding.geomag.core.geomag_map import GeomagMap, MapSpec
+from hyper_nav_aiding.geomag.core.map_epoch import map_epoch_offset
+from hyper_nav_aiding.geomag.core.matching import LocalFrame
 from hyper_nav_workbench.testing import TopicCollector
 
 SPEC = MapSpec(lat_min_deg=44.0, lat_max_deg=44.5, lon_min_deg=110.0, lon_max_deg=110.5, grid_step_deg=0.05,

@@ -10,8 +10,8 @@ fusion node takes every one of them through its declared source
 import numpy as np
 import pytest
 
-from hyper_nav_aiding.offline import run_virtual_offline
-from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
+from hyper_nav_aiding.virtual_gnss.offline import run_virtual_offline
+from hyper_nav_aiding.virtual_gnss.parameters import VirtualGnssNodeParams, from_scenario
 from hyper_nav_filter.conversions import stamp_to_s
 from hyper_nav_workbench.core.bag import deserialize, read_bag
 from hyper_nav_workbench.graph import Graph

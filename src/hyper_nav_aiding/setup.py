@@ -18,16 +18,16 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "geomag_node = hyper_nav_aiding.nodes.geomag_node:main",
-            "build_geomag_map = hyper_nav_aiding.build_geomag_map:main",
-            "virtual_gnss_node = hyper_nav_aiding.nodes.virtual_gnss_node:main",
-            "lever_arm_node = hyper_nav_aiding.nodes.lever_arm_node:main",
+            "geomag_node = hyper_nav_aiding.geomag.node:main",
+            "build_geomag_map = hyper_nav_aiding.geomag.build_map:main",
+            "virtual_gnss_node = hyper_nav_aiding.virtual_gnss.node:main",
+            "lever_arm_node = hyper_nav_aiding.lever_arm.node:main",
         ],
         # the aiding nodes, declared to the launcher and the scenario loader (hyper_nav_filter.aiding_nodes)
         "hyper_nav.aiding_nodes": [
-            "geomag = hyper_nav_aiding.descriptors:GEOMAG",
-            "lever_arm = hyper_nav_aiding.descriptors:LEVER_ARM",
-            "virtual_gnss = hyper_nav_aiding.descriptors:VIRTUAL_GNSS",
+            "geomag = hyper_nav_aiding.geomag.descriptor:GEOMAG",
+            "lever_arm = hyper_nav_aiding.lever_arm.descriptor:LEVER_ARM",
+            "virtual_gnss = hyper_nav_aiding.virtual_gnss.descriptor:VIRTUAL_GNSS",
         ],
     },
 )

@@ -1,18 +1,12 @@
-"""hyper_nav_aiding: navigation aiding for hyper-nav.
+"""hyper_nav_aiding: navigation aiding nodes for hyper-nav, one folder each.
 
-Layout (same core/wrapper split as the other packages):
-  core/   pure numpy/scipy algorithms, no rclpy:
-          geomagnetic matching (MAGCOM, ICCP, SIMAN; seed 003), virtual GNSS
-          pseudoranges under lock loss (seed 004), DDPG re-estimation of the
-          elastic lever-arm natural frequencies (seed 000)
-  nodes/  thin rclpy nodes publishing aiding measurements to the fusion node
+  geomag/        geomagnetic matching (MAGCOM, ICCP, SIMAN, EKF on intensity; seed 003)
+  virtual_gnss/  virtual GNSS pseudoranges under lock loss (seed 004 section 2.3)
+  lever_arm/     re-estimation of the elastic lever arm's natural frequencies (RL-DLAC, seed 000)
 
-Virtual GNSS (issue #8): core/virtual_gnss.py (state machine: stored
-ephemerides, lock-loss detection, nothing stale), core/virtual_pseudoranges.py
-(eqs. 8-11), core/alpha_beta.py and core/fused_extrapolation.py (vehicle
-position sources), core/virtual_gnss_config.py; nodes/virtual_gnss_node.py.
-
-The nodes are declared to the launcher and the scenario loader by
-``descriptors.py`` (entry-point group ``hyper_nav.aiding_nodes``). The paper
-reproductions that use these cores are in the ``hyper_nav_repro`` package.
+Each folder holds its node (``node.py``, a thin rclpy wrapper), its declaration to the launcher and the scenario
+loader (``descriptor.py``, entry-point group ``hyper_nav.aiding_nodes``), its message conversions and its pure
+cores (``core/``, numpy/scipy, no rclpy). The nodes run without the simulator installed; the offline helpers over
+simulated flights (``virtual_gnss/offline.py``, ``lever_arm/sim_windows.py``, ``geomag/mc_feed.py``) import it
+when used. The paper reproductions that use these cores are in the ``hyper_nav_repro`` package.
 """

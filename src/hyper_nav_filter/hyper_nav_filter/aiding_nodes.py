@@ -5,7 +5,7 @@ lever-arm learning, a new receiver aid) describes each of its aiding nodes
 with one ``AidingNode`` and exports it through the entry-point group
 ``hyper_nav.aiding_nodes``, as the pytest plugin is registered::
 
-    entry_points={"hyper_nav.aiding_nodes": ["geomag = hyper_nav_aiding.descriptors:GEOMAG"]}
+    entry_points={"hyper_nav.aiding_nodes": ["geomag = hyper_nav_aiding.geomag.descriptor:GEOMAG"]}
 
 The scenario loader (``core/scenario.py``) takes from it the scenario block
 the node reads and the block's validator; the launcher (``graph.py``) its

@@ -94,14 +94,14 @@ GEOMAG_DURATION_S, GEOMAG_START_S = 24.0, 4.0
 def test_map_matching_is_drawn_with_the_geomag_node_in_the_loop(tmp_path):
     """seed003_geomag (position fixes from the geomag node): each run's own
     magnetometer draw goes through the node's logic against the run's own
-    released solutions (``hyper_nav_aiding.mc_geomag``) and its fixes reach
+    released solutions (``hyper_nav_aiding.geomag.mc_feed``) and its fixes reach
     the filter through the declared source. The set-up and physics of the
     graph test (test/test_geomag_graph.py): 300/-200 m initial horizontal
     error, a small map; a fix per second from 4 s on, all taken; the
     along-gradient error goes (below 40 m over the last 5 s), the
     across-gradient error stays (above 150 m). The run depends on (scenario,
     k) only."""
-    from hyper_nav_aiding.core.geomag_config import GeomagConfig
+    from hyper_nav_aiding.geomag.core.geomag_config import GeomagConfig
     over = {"duration_s": GEOMAG_DURATION_S, "flight.duration_s": GEOMAG_DURATION_S, "report.skip_s": 1.0,
             "geomag.start_s": GEOMAG_START_S,
             "geomag.map": {**GeomagConfig().map.__dict__, "alt_m": 26000.0, "lat_min_deg": 40.0, "lat_max_deg": 41.0,

@@ -18,7 +18,7 @@ time), an OCXO receiver clock (h0 8e-20, h_-2 4e-23) in every case. Cases:
   issue 35: the live ``nav/state``), with ``aiding="delayed"`` its released
   record (``nav/delayed/state``, what gnss_node subscribes to live);
 * ``virtual``: the unaided receiver's epochs plus the paper's virtual
-  pseudoranges on the lost channels (``hyper_nav_aiding.core.virtual_gnss``,
+  pseudoranges on the lost channels (``hyper_nav_aiding.virtual_gnss.core.virtual_gnss``,
   seed 004 case b);
 * ``coasting``: no GNSS from the sheath's onset on (INS alone).
 
@@ -86,7 +86,7 @@ def prepare(seed, duration_s, blackout, world="realistic", filter_overrides=None
 
 
 def _flight(p, loss):
-    from hyper_nav_aiding.offline import Flight
+    from hyper_nav_aiding.virtual_gnss.offline import Flight
     return Flight(p.sc, p.traj, p.imu, loss, p.no_loss, p.t_on)
 
 
@@ -112,7 +112,7 @@ def fly_aided(p, max_age_s=2.0, accel_sigma_mps2=0.2, aiding="current"):
     if aiding not in AIDING:
         raise ValueError(f"aiding: expected one of {AIDING}, got {aiding!r}")
     from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
-    from hyper_nav_aiding.conversions import fill_gnss_measurements
+    from hyper_nav_aiding.virtual_gnss.conversions import fill_gnss_measurements
     from hyper_nav_filter.core.fusion import FusionEngine
     from hyper_nav_filter.sources.router import SourceRouter
     from hyper_nav_repro.seed004.cases import CaseResult, imu_message

@@ -45,14 +45,16 @@ import numpy as np
 from hyper_nav_filter.core.elastic_lever_arm import TABLE2_FREQ_RADPS, TABLE4_FREQ_RADPS
 from hyper_nav_sim.core.scenario import load_scenario
 
-from hyper_nav_aiding.core.lever_arm import identifiers
-from hyper_nav_aiding.core.lever_arm.config import LeverArmLearningConfig
-from hyper_nav_aiding.core.lever_arm.crb import fisher_information
-from hyper_nav_aiding.core.lever_arm.env import LeverArmFrequencyEnv, position_error_m
-from hyper_nav_aiding.core.lever_arm.reestimate import reestimate
-from hyper_nav_aiding.core.lever_arm.replay import replay
+from hyper_nav_aiding.lever_arm.core import identifiers
+from hyper_nav_aiding.lever_arm.core.config import LeverArmLearningConfig
+from hyper_nav_aiding.lever_arm.core.crb import fisher_information
+from hyper_nav_aiding.lever_arm.core.env import LeverArmFrequencyEnv, position_error_m
+from hyper_nav_aiding.lever_arm.core.reestimate import reestimate
+from hyper_nav_aiding.lever_arm.core.replay import replay
 from .study import navigation_errors
-from hyper_nav_aiding.sim_windows import SimulatedFlight, model_consistent_window, triggered_window, with_gnss_sigmas
+from hyper_nav_aiding.lever_arm.sim_windows import (
+    SimulatedFlight, model_consistent_window, triggered_window, with_gnss_sigmas,
+)
 
 PAPER = {"initial_radps": list(TABLE2_FREQ_RADPS), "true_radps": list(TABLE4_FREQ_RADPS),
          "learned_radps": [20.1389, 55.1664, 113.5816], "error_pct": [0.13, 0.35, 0.46], "mean_error_pct": 0.31}

@@ -20,9 +20,9 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.model_update import ModelUpdate
 from hyper_nav_workbench.offline_fly import per_axis_errors
 
-from hyper_nav_aiding.core.lever_arm.replay import FREQ_FIELD
-from hyper_nav_aiding.lever_arm_conversions import MODEL_NAME
-from hyper_nav_aiding.sim_windows import SimulatedFlight
+from hyper_nav_aiding.lever_arm.core.replay import FREQ_FIELD
+from hyper_nav_aiding.lever_arm.conversions import MODEL_NAME
+from hyper_nav_aiding.lever_arm.sim_windows import SimulatedFlight
 
 
 def fly(flight: SimulatedFlight, cfg, updates=(), duration_s: float | None = None, release_every: int = 10):

@@ -35,9 +35,9 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import BaroHeight
 from hyper_nav_workbench.core import scoring
 
-from hyper_nav_aiding.core.geomag_aiding import GeomagAiding
-from hyper_nav_aiding.core.matching import MagSample, NavPoint
-from hyper_nav_aiding.geomag_conversions import fix_measurement
+from hyper_nav_aiding.geomag.core.geomag_aiding import GeomagAiding
+from hyper_nav_aiding.geomag.core.matching import MagSample, NavPoint
+from hyper_nav_aiding.geomag.conversions import fix_measurement
 
 
 @dataclass

@@ -16,8 +16,8 @@ import numpy as np
 
 from hyper_nav_filter.core.attitude import skew
 
-from hyper_nav_aiding.core import pcrb
-from hyper_nav_aiding.core.geomag_map import GeomagMap
+from hyper_nav_aiding.geomag.core import pcrb
+from hyper_nav_aiding.geomag.core.geomag_map import GeomagMap
 
 
 @dataclass
@@ -101,7 +101,7 @@ class FlightBound:
 
 def _vector_gradient(gmap: GeomagMap, lat_rad, lon_rad, alt_m, d_m: float = 50.0) -> np.ndarray:
     """d B_enu / d(E, N, U) by central differences of the map (nT/m)."""
-    from hyper_nav_aiding.core.matching import LocalFrame
+    from hyper_nav_aiding.geomag.core.matching import LocalFrame
     out = np.empty((len(lat_rad), 3, 3))
     for k in range(len(lat_rad)):
         fr = LocalFrame(lat_rad[k], lon_rad[k], alt_m[k])

@@ -53,10 +53,10 @@ import numpy as np
 
 from hyper_nav_filter.core.config import FilterConfig
 
-from hyper_nav_aiding.core.geomag_aiding import GeomagAiding
-from hyper_nav_aiding.core.geomag_config import GeomagConfig
-from hyper_nav_aiding.core.geomag_map import GeomagMap, cached_map_path, get_or_build, load_map
-from hyper_nav_aiding.core.map_epoch import bring_forward, check as check_map_epoch
+from hyper_nav_aiding.geomag.core.geomag_aiding import GeomagAiding
+from hyper_nav_aiding.geomag.core.geomag_config import GeomagConfig
+from hyper_nav_aiding.geomag.core.geomag_map import GeomagMap, cached_map_path, get_or_build, load_map
+from hyper_nav_aiding.geomag.core.map_epoch import bring_forward, check as check_map_epoch
 from .bound import FlightBound
 from .aided_flight import AidedFlight, baro_measurements, imu_streams, mag_total, position_errors
 from .table import format_table, plot, summarize

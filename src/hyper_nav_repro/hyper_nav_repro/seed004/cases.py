@@ -10,7 +10,7 @@ satellite from 30 s, never regained):
 
 * ``a`` no lock loss: the same flight and receiver without the loss;
 * ``b`` lock loss with virtual compensation: the lost satellites' virtual
-  pseudoranges and rates (:class:`~hyper_nav_aiding.core.virtual_gnss.VirtualGnss`);
+  pseudoranges and rates (:class:`~hyper_nav_aiding.virtual_gnss.core.virtual_gnss.VirtualGnss`);
 * ``c`` lock loss without compensation as the paper defines it: the receiver
   does not notice its loss and corrupted observations reach the filter
   (:class:`hyper_nav_sim.core.gnss.undetected_lock_loss.UndetectedLockLoss`);
@@ -32,10 +32,10 @@ from hyper_nav_workbench.core import scoring
 from hyper_nav_sim.core.gnss.undetected_lock_loss import UndetectedLockLoss
 from hyper_nav_sim.gnss_messages import fill_gnss_ephemeris
 
-from hyper_nav_aiding.conversions import fill_gnss_measurements
-from hyper_nav_aiding.core.virtual_gnss import VirtualGnss
-from hyper_nav_aiding.offline import Flight
-from hyper_nav_aiding.parameters import VirtualGnssNodeParams, from_scenario
+from hyper_nav_aiding.virtual_gnss.conversions import fill_gnss_measurements
+from hyper_nav_aiding.virtual_gnss.core.virtual_gnss import VirtualGnss
+from hyper_nav_aiding.virtual_gnss.offline import Flight
+from hyper_nav_aiding.virtual_gnss.parameters import VirtualGnssNodeParams, from_scenario
 
 CASES = ("a", "b", "c", "d")
 CASE_NAMES = {"a": "no lock loss", "b": "lock loss, virtual compensation",

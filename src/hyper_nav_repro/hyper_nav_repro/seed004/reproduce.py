@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 
-from hyper_nav_aiding.offline import prepare
+from hyper_nav_aiding.virtual_gnss.offline import prepare
 
 from .cases import CASE_NAMES, run_case, statistics
 

@@ -37,7 +37,7 @@ from scipy.stats import chi2
 
 from hyper_nav_workbench.graph import apply_overrides
 
-from hyper_nav_aiding.offline import prepare
+from hyper_nav_aiding.virtual_gnss.offline import prepare
 
 from .cases import run_case
 

@@ -15,7 +15,7 @@ publish them and converted as the fusion node converts them.
   * a source on an aiding node's output (map matching: ``horizontal_fix``
     / ``position_fix`` on the geomag node's ``geomag/fix``): the node's own
     logic in the loop, declared by its package (``AidingNode.mc_feed``,
-    e.g. ``hyper_nav_aiding.mc_geomag``): it takes its inputs at their
+    e.g. ``hyper_nav_aiding.geomag.mc_feed``): it takes its inputs at their
     stamps and the run's released solutions as its ``nav/state``, and its
     outputs reach the run's sources through their own converters. An aiding
     node that declares no feed is refused, naming the source and the node.

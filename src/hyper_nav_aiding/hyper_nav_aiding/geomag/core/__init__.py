@@ -1,0 +1,1 @@
+"""Geomagnetic matching cores: pure numpy/scipy, no rclpy."""

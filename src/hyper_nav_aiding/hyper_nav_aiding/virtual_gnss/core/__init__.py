@@ -1,0 +1,1 @@
+"""Virtual GNSS cores: pure numpy, no rclpy."""
