@@ -58,7 +58,7 @@ from ament_index_python.packages import get_package_prefix
 
 
 from hyper_nav_filter import aiding_nodes
-from hyper_nav_sim.core.fields import suggestion
+from hyper_nav_filter.core.params import suggestion
 from hyper_nav_sim.core.scenario import (
     Scenario, ScenarioError, apply_overrides, bag_scenario, fusion_inputs, load_scenario,
 )

@@ -93,15 +93,17 @@ import yaml
 from hyper_nav_filter.core import units
 from hyper_nav_filter.core.params import ConfigError
 from hyper_nav_filter.filter_setup import FilterSetup
+from hyper_nav_gnss.formats.registry import RECEIVER_FORMATS
 
 from hyper_nav_workbench.core.bag import qos_profile
-from hyper_nav_sim.core.fields import suggestion
+from hyper_nav_filter.core.params import suggestion
 from hyper_nav_workbench.core.importer import columns, gnss_raw, kfgins, messages, rtklib_pos
 
 # stream presets: name -> function(stream, spec, n_columns) -> column map; rtklib: the gnss stream is an
 # RTKLIB .pos solution (core/importer/rtklib_pos.py, its own fields), the other streams column maps
 PRESETS = {"kfgins": kfgins.preset, "rtklib": None}
-GNSS_RAW_PRESETS = ("ubx", "rinex")
+# receiver presets: every registered receiver format (hyper_nav_gnss.formats.registry)
+GNSS_RAW_PRESETS = tuple(RECEIVER_FORMATS)
 # IMU file formats for the receiver presets: name -> function(spec) -> column map (columns.py fields)
 IMU_FORMATS: dict = {}
 KNOWN = {"preset", "kfgins_config", "imu", "gnss", "truth", "start_s", "end_s", "filter", "report", "alignment"}

@@ -82,7 +82,7 @@ def main(argv=None) -> int:
     for item in filter(None, a.columns.split(",")):
         k, _, v = item.partition("=")
         if k not in DEFAULT_COLUMNS:
-            from hyper_nav_sim.core.fields import unknown_field
+            from hyper_nav_filter.core.params import unknown_field
             ap.error(unknown_field("--columns ", k, DEFAULT_COLUMNS))
         cols[k] = v
     try:

@@ -21,11 +21,12 @@ No rclpy here.
 """
 from __future__ import annotations
 
+import difflib
 import math
 
 import numpy as np
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Iterable
 
 
 class ConfigError(ValueError):
@@ -207,8 +208,36 @@ def check_all(specs, values: dict, where: str = "") -> dict:
     return {s.name: s.check(values[s.name], where) if s.name in values else s.default for s in specs}
 
 
+# ---- the one did-you-mean of the project: every refused field name goes through ``suggestion`` ----------------
+def suggestion(key: str, allowed: Iterable[str]) -> str | None:
+    """The allowed name closest to ``key`` (difflib ratio >= 0.6), or None."""
+    match = difflib.get_close_matches(str(key), sorted(map(str, allowed)), n=1, cutoff=0.6)
+    return match[0] if match else None
+
+
 def suggest(name: str, known) -> str:
-    """'; did you mean 'x'?' for the closest known name, or ''."""
-    import difflib
-    best = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
-    return f" (did you mean '{best[0]}'?)" if best else f" (known: {', '.join(sorted(known))})"
+    """" (did you mean 'x'?)" for the closest known name, else " (known: a, b, ...)"."""
+    best = suggestion(name, known)
+    return f" (did you mean '{best}'?)" if best else f" (known: {', '.join(sorted(map(str, known)))})"
+
+
+def unknown_field(path: str, key, allowed: Iterable[str]) -> str:
+    """Message for an unknown field ``path + key`` (``path`` ends with '.' or is empty)::
+
+        >>> unknown_field("graph.", "real_time_facter", {"real_time_factor", "qos_depth"})
+        "graph.real_time_facter: unknown field; did you mean 'real_time_factor'?"
+
+    Without a close match the message lists the known names instead."""
+    allowed = sorted(map(str, allowed))
+    best = suggestion(key, allowed)
+    if best:
+        return f"{path}{key}: unknown field; did you mean '{best}'?"
+    return f"{path}{key}: unknown field (known: {', '.join(allowed)})"
+
+
+def check_keys(d: dict, allowed: Iterable[str], path: str) -> None:
+    """ValueError naming the first key of ``d`` not in ``allowed``."""
+    allowed = set(allowed)
+    for key in d:
+        if key not in allowed:
+            raise ValueError(unknown_field(path, key, allowed))

@@ -20,6 +20,7 @@ import numpy as np
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.orbits.ephemeris import C_MPS, constants, satellite_position_ecef, system_time_s
 from hyper_nav_gnss.geometry import rot3
+from hyper_nav_gnss.positioning.dop import dops
 
 
 @dataclass
@@ -31,7 +32,7 @@ class PvtSolution:
     v_e_mps: np.ndarray | None   # ECEF velocity [m/s]
     clk_drift_mps: float | None
     cov_vel_drift: np.ndarray | None
-    dop: dict                    # GDOP, PDOP, HDOP, VDOP, TDOP
+    dop: dict                    # gdop, pdop, hdop, vdop, tdop (:mod:`.dop`)
     residuals_m: np.ndarray
     residuals_rate_mps: np.ndarray | None
     iterations: int
@@ -102,13 +103,8 @@ def solve_pvt(ephs, t_tag_s, pseudorange_m, pr_sigma_m=None, pseudorange_rate_mp
     cov = np.linalg.inv((H.T * w) @ H)
     # DOPs (unweighted, single clock column)
     G = np.hstack([-u, np.ones((n, 1))])
-    Q = np.linalg.inv(G.T @ G)
     lat, lon, _ = earth.ecef_to_geodetic(x[:3])
-    Cne = earth.C_n_e(lat, lon)
-    Qenu = Cne.T @ Q[:3, :3] @ Cne
-    dop = {"GDOP": float(np.sqrt(np.trace(Q))), "PDOP": float(np.sqrt(np.trace(Q[:3, :3]))),
-           "HDOP": float(np.sqrt(Qenu[0, 0] + Qenu[1, 1])), "VDOP": float(np.sqrt(Qenu[2, 2])),
-           "TDOP": float(np.sqrt(Q[3, 3]))}
+    dop = dops(G, lat, lon)
     v = drift = cov_v = res_v = None
     if pseudorange_rate_mps is not None:
         prr = np.asarray(pseudorange_rate_mps, float)

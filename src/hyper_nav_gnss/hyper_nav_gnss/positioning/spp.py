@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hyper_nav_gnss import earth
+from hyper_nav_gnss.positioning.dop import dops
 from hyper_nav_gnss.positioning.raim import global_statistic, standardized_residuals, threshold
 from hyper_nav_gnss.corrections.receiver_model import (
     ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges,
@@ -92,20 +93,6 @@ class SppSolution:
     @property
     def n_used(self) -> int:
         return int(np.count_nonzero(self.used))
-
-
-def _dops(H_geo, lat, lon) -> dict:
-    """GDOP, PDOP, HDOP, VDOP, TDOP of unit line-of-sight rows (ECEF) and
-    clock columns (geometry only)."""
-    try:
-        Q = np.linalg.inv(H_geo.T @ H_geo)
-    except np.linalg.LinAlgError:
-        return {}
-    C = earth.C_n_e(lat, lon)                       # ENU -> ECEF
-    Qp = C.T @ Q[:3, :3] @ C
-    return {"gdop": float(np.sqrt(np.trace(Q))), "pdop": float(np.sqrt(np.trace(Q[:3, :3]))),
-            "hdop": float(np.sqrt(Qp[0, 0] + Qp[1, 1])), "vdop": float(np.sqrt(Qp[2, 2])),
-            "tdop": float(np.sqrt(Q[3, 3]))}
 
 
 def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool):
@@ -263,7 +250,7 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
                             systems.index(c.system) > 0 else 0.0) for c in obs.choices])
     sol = SppSolution(
         float(raw.t_s), float(raw.t_rx_gpst_s), status, r.copy(), cov[:3, :3], float(x[3]), systems[0],
-        {s: float(x[3 + j]) for j, s in enumerate(systems) if j > 0}, _dops(H, lat, lon), obs.sat_ids,
+        {s: float(x[3 + j]) for j, s in enumerate(systems) if j > 0}, dops(H, lat, lon), obs.sat_ids,
         full.pr_m - rho - clk, np.sqrt(full.var_m2), full.el_rad, full.az_rad, obs.cn0_dbhz[:, 0], obs.dual, used,
         excluded, below, float(global_statistic(v, var)), float(thr), int(len(idx) - H.shape[1]), int(it))
     counters[f"epochs_{status}"] += 1

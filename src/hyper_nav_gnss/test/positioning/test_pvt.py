@@ -48,7 +48,7 @@ def test_noise_free_pvt_exact(sky, systems):
     assert all(abs(b) < 0.01 for b in sol.isb_m.values())
     assert sol.iterations <= 8
     assert np.max(np.abs(sol.residuals_m)) < 0.01
-    assert 0.4 < sol.dop["PDOP"] < 6.0 and sol.dop["HDOP"] < sol.dop["PDOP"]
+    assert 0.4 < sol.dop["pdop"] < 6.0 and sol.dop["hdop"] < sol.dop["pdop"]
 
 
 def test_noisy_pvt_consistent_with_covariance(sky):

@@ -34,7 +34,7 @@ import numpy as np
 
 from hyper_nav_filter.core.atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
 
-from .fields import unknown_field
+from hyper_nav_filter.core.params import unknown_field
 
 CONFIG_FIELDS = frozenset({"pressure_noise_rel_ppm", "pressure_noise_pa", "pressure_bias_pa", "max_alt_m"})
 

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fields import check_keys
+from hyper_nav_filter.core.params import check_keys
 
 _MISSING = object()
 

@@ -33,7 +33,7 @@ import math
 from .boost_glide_config import _num  # one number validator for the flight and guidance blocks
 from dataclasses import dataclass
 
-from .fields import check_keys
+from hyper_nav_filter.core.params import check_keys
 
 _MISSING = object()
 NAV_TYPES = ("odometry", "navstate")

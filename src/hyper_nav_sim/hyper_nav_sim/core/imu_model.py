@@ -50,7 +50,7 @@ import numpy as np
 
 from hyper_nav_filter.core import units
 
-from .fields import unknown_field
+from hyper_nav_filter.core.params import unknown_field
 
 ARCSEC = units.DEG / 3600.0
 FLICKER_FLOOR = float(np.sqrt(2.0 * np.log(2.0) / np.pi))   # 0.6643, IEEE 952

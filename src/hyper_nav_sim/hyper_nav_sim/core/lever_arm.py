@@ -87,7 +87,7 @@ from hyper_nav_filter.core.elastic_lever_arm import (TABLE2_FREQ_RADPS, TABLE4_F
 from hyper_nav_filter.core.elastic_lever_arm import lever_arm_dvel as _lever_arm_dvel
 from hyper_nav_filter.core.elastic_lever_arm import zoh_matrices as _zoh_matrices
 
-from .fields import unknown_field
+from hyper_nav_filter.core.params import unknown_field
 
 
 _DEFAULTS = {

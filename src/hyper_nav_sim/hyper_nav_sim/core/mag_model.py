@@ -42,7 +42,7 @@ import numpy as np
 from hyper_nav_gnss import earth
 
 from hyper_nav_filter.core import wmm
-from .fields import unknown_field
+from hyper_nav_filter.core.params import unknown_field
 MAP_ERROR_MODELS = ("correlated", "white_uniform")
 
 

@@ -35,7 +35,7 @@ from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
 from hyper_nav_filter import aiding_nodes
-from .fields import suggestion, unknown_field
+from hyper_nav_filter.core.params import suggestion, unknown_field
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import copy
 
-from .fields import suggestion
+from hyper_nav_filter.core.params import suggestion
 
 _SIGNS = (1.0, -1.0, 1.0)
 

@@ -57,7 +57,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 
 from hyper_nav_gnss import earth
 
-from .fields import check_keys, unknown_field
+from hyper_nav_filter.core.params import check_keys, unknown_field
 from .trajectory import TruthSample, gauss_legendre_increments, inertial_rates
 
 POS_VEL = ("t", "lat", "lon", "alt", "ve", "vn", "vu")

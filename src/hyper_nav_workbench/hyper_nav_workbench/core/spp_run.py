@@ -48,7 +48,8 @@ from hyper_nav_gnss.corrections.combinations import parse_plan
 from hyper_nav_gnss.observations import EphemerisStore, MalformedGnssInput
 from hyper_nav_gnss.corrections.receiver_model import ReceiverModel
 from hyper_nav_gnss.positioning.weighting import ErrorModel
-from hyper_nav_filter.core.params import ConfigError
+from hyper_nav_gnss.formats.registry import RECEIVER_FORMATS, detect, receiver_format
+from hyper_nav_filter.core.params import ConfigError, suggest
 
 from hyper_nav_workbench.core.importer import gnss_raw
 from hyper_nav_workbench.core.importer.rtklib_pos import read_pos
@@ -115,10 +116,11 @@ def load_description(path, data_dir=None) -> dict:
 def read_input(doc: dict, max_epochs: int | None = None) -> SppInput:
     """Receiver data of a ubx / rinex description."""
     preset = doc.get("preset")
-    if preset not in ("ubx", "rinex"):
-        raise ConfigError(f"preset: expected 'ubx' or 'rinex', got {preset!r}")
+    if preset not in RECEIVER_FORMATS:
+        raise ConfigError(f"preset: expected a receiver format ({', '.join(RECEIVER_FORMATS)}), got {preset!r}"
+                          f"{suggest(str(preset), RECEIVER_FORMATS) if isinstance(preset, str) else ''}")
     spec = {k: v for k, v in (doc.get("gnss") or {}).items() if k in ("file", "nav", "signals")}
-    if preset == "rinex" and "signals" not in spec:          # read only the codes some run uses
+    if RECEIVER_FORMATS[preset].needs_nav and "signals" not in spec:   # read only the codes some run uses
         want: dict = {}
         for run in ((doc.get("spp") or {}).get("runs") or DEFAULT_RUNS).values():
             for sysc, choices in (run.get("signals") or {}).items():
@@ -153,14 +155,14 @@ def read_files(obs_path, nav_paths, runs: dict, max_epochs: int | None = None) -
     Refused (ConfigError naming the file): a file that does not exist, is
     not RINEX of the right type and version, or yields no epoch / no record."""
     from hyper_nav_gnss.formats.rinex_nav import RINEX3_SYSTEMS, read_rinex_nav
-    from hyper_nav_gnss.formats.rinex_obs import read_rinex_obs
     t0 = time.perf_counter()
     paths = [pathlib.Path(obs_path)] + [pathlib.Path(n) for n in nav_paths]
     for p in paths:
         if not p.is_file():
             raise ConfigError(f"{p}: no such file")
     try:
-        obs = read_rinex_obs(obs_path, signals=plan_codes(runs), max_epochs=max_epochs, observables="S")
+        fmt = receiver_format(detect(obs_path) or "rinex")     # a RINEX file, or any registered receiver format
+        obs = fmt.read(obs_path, signals=plan_codes(runs), max_epochs=max_epochs, observables="S")
     except ValueError as exc:
         raise ConfigError(f"observation file {exc}") from None
     if not obs.epochs:
@@ -179,8 +181,8 @@ def read_files(obs_path, nav_paths, runs: dict, max_epochs: int | None = None) -
         counts.update({f"nav_{k}": v for k, v in nav.counts.items()})
         errors += nav.errors[:20]
         notes += [f"{pathlib.Path(n).name}: {x}" for x in nav.notes]
-    inp = SppInput(obs.epochs, records, iono, str(obs_path), "rinex", time.perf_counter() - t0, counts, errors,
-                   {"file": str(obs_path), "nav": [str(n) for n in nav_paths]}, obs.header)
+    inp = SppInput(obs.epochs, records, iono, str(obs_path), fmt.name, time.perf_counter() - t0, counts, errors,
+                   {"file": str(obs_path), "nav": [str(n) for n in nav_paths]}, obs.header or {})
     inp.notes = notes
     return inp
 

@@ -132,7 +132,7 @@ def test_noisy_pvt_nees(hyper):
     assert 2.0 <= np.mean(nees_p) <= 4.0, np.mean(nees_p)
     assert 2.0 <= np.mean(nees_v) <= 4.0, np.mean(nees_v)
     print("mean NEES pos", np.mean(nees_p), "vel", np.mean(nees_v), "n_sats", np.mean([ep.fix.n_sats for ep in eps]),
-          "PDOP", np.mean([ep.fix.dop["PDOP"] for ep in eps]))
+          "PDOP", np.mean([ep.fix.dop["pdop"] for ep in eps]))
     # clock truth is a random walk, not constant
     b = np.array([ep.clock_bias_m for ep in eps])
     assert np.ptp(b) > 0.0

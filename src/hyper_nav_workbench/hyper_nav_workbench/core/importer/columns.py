@@ -79,7 +79,7 @@ from hyper_nav_filter.core import units
 from hyper_nav_gnss.earth import G0_MPS2
 from hyper_nav_filter.core.params import ConfigError
 
-from hyper_nav_sim.core.fields import unknown_field
+from hyper_nav_filter.core.params import unknown_field
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}

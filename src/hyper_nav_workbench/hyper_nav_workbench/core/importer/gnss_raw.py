@@ -36,7 +36,8 @@ import numpy as np
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_gnss.orbits.ephemeris import SECONDS_PER_WEEK
 from hyper_nav_gnss.signals import MSG_SYSTEM
-from hyper_nav_filter.core.params import ConfigError
+from hyper_nav_filter.core.params import ConfigError, suggest, unknown_field
+from hyper_nav_gnss.formats.registry import RECEIVER_FORMATS, receiver_format
 
 from hyper_nav_workbench.core.bag import typestore
 
@@ -89,30 +90,23 @@ def time_offset_s(axis: str, epochs) -> float:
 
 
 def read_gnss(preset: str, spec: dict, base_dir, where: str = "gnss") -> GnssImport:
-    """Read the ``gnss`` block of a ``ubx`` or ``rinex`` import (module docstring)."""
-    from hyper_nav_sim.core.fields import unknown_field
+    """Read the ``gnss`` block of a receiver-format import (``preset``: a name of
+    ``hyper_nav_gnss.formats.registry.RECEIVER_FORMATS``; module docstring)."""
     unknown = sorted(set(spec) - KNOWN)
     if unknown:
         raise ConfigError(unknown_field(f"{where}.", unknown[0], KNOWN))
+    try:
+        fmt = receiver_format(preset)
+    except KeyError:
+        raise ConfigError(f"preset: {preset!r} is not a GNSS receiver format{suggest(str(preset), RECEIVER_FORMATS)}"
+                          ) from None
     t0 = time.perf_counter()
-    if preset == "ubx":
-        from hyper_nav_gnss.formats.ubx import read_ubx
-        path = _path(spec, "file", base_dir, where)
-        log = read_ubx(path)
-        imp = GnssImport(log.epochs, list(log.ephemerides), dict(log.iono), Counter(log.counts), list(log.errors),
-                         source=str(path))
-        if "nav" in spec:
-            _add_nav(imp, _path(spec, "nav", base_dir, where), at_s=np.nan)
-    elif preset == "rinex":
-        from hyper_nav_gnss.formats.rinex_obs import read_rinex_obs
-        path = _path(spec, "file", base_dir, where)
-        signals = spec.get("signals")
-        obs = read_rinex_obs(path, signals=signals)
-        imp = GnssImport(obs.epochs, [], {}, Counter(obs.counts), list(obs.errors), source=str(path),
-                         header=obs.header)
+    path = _path(spec, "file", base_dir, where)
+    log = fmt.read(path, signals=spec.get("signals"))
+    imp = GnssImport(log.epochs, list(log.ephemerides), dict(log.iono), Counter(log.counts), list(log.errors),
+                     source=str(path), header=log.header or {})
+    if "nav" in spec or fmt.needs_nav:
         _add_nav(imp, _path(spec, "nav", base_dir, where), at_s=np.nan)
-    else:
-        raise ConfigError(f"preset: {preset!r} is not a GNSS receiver preset")
     imp.read_wall_s = time.perf_counter() - t0
     if not imp.epochs:
         raise ConfigError(f"{where}.file: {imp.source}: no receiver epoch read ({dict(imp.counts)})")
