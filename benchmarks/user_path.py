@@ -60,7 +60,7 @@ def _py(code: str, *args) -> list[str]:
 
 IMPORT = "import sys; from hyper_nav_workbench.import_data import main; sys.exit(main(sys.argv[1:]))"
 REPLAY = "import sys; from hyper_nav_workbench.replay_filter import main; sys.exit(main(sys.argv[1:]))"
-REF_IMPORT = ("import sys; from hyper_nav_sim import import_data as m; "
+REF_IMPORT = ("import sys; from hyper_nav_workbench import import_data as m; "
               "m.write(m.load_import(sys.argv[1]), sys.argv[2], per_message=True)")
 REF_REPLAY = "import sys; sys.path.insert(0, sys.argv[1]); import user_path; user_path.reference(*sys.argv[2:])"
 LOOP = "import sys; sys.path.insert(0, sys.argv[1]); import user_path; user_path.loop_only(*sys.argv[2:])"

@@ -19,7 +19,7 @@ from hyper_nav_workbench import import_data
 from hyper_nav_repro.walk import reproduce as repro_walk
 from hyper_nav_workbench.core.bag import deserialize, read_bag
 from hyper_nav_workbench.core.importer import columns, gnss_raw
-from hyper_nav_sim.core.scenario import load_scenario
+from hyper_nav_sim.core.scenario import find_scenario, load_scenario
 from hyper_nav_workbench.spp import default_data_dir
 from hyper_nav_workbench.testing import play_into_fusion
 
@@ -46,7 +46,7 @@ def test_aligned_walk_replays_into_live_fusion_node_as_offline(tmp_path, segment
     filt["config"] = {**FilterConfig.from_dict(filt["config"]).as_dict(), "output_rate_hz": 10.0}
     filt["initial_state"].setdefault("accel_bias_ug", [0.0, 0.0, 0.0])       # written out: nothing is drawn
     sc_file = tmp_path / "walk_aligned.yaml"
-    sc_file.write_text(yaml.safe_dump({"extends": str(repro_walk.walk_yaml().parents[1] / "scenarios" / "default.yaml"),
+    sc_file.write_text(yaml.safe_dump({"extends": str(find_scenario("default")),
                                        "name": "walk_aligned", "filter": filt,
                                        "imu": {"mounting_b_xyzw": list(imported["imu"].mounting_b_xyzw)}}))
     sc = load_scenario(str(sc_file))

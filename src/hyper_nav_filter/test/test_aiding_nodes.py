@@ -12,6 +12,7 @@ from hyper_nav_filter import aiding_nodes
 from hyper_nav_sim.core import scenario
 from hyper_nav_filter.aiding_nodes import AidingNode, flat_parameters
 from hyper_nav_sim.core.scenario import ScenarioError, apply_overrides, load_scenario
+from hyper_nav_workbench import graph as graph_module
 from hyper_nav_workbench.graph import Graph
 
 SIM = pathlib.Path(scenario.__file__).resolve().parents[1]
@@ -34,7 +35,7 @@ def test_launcher_and_scenario_loader_name_no_aiding_node():
         words |= {n.block, n.executable, n.package}
         if n.name not in scenario.OPTIONAL_BLOCKS:
             words.add(n.name)
-    for path in (SIM / "graph.py", SIM / "core" / "scenario.py"):
+    for path in (pathlib.Path(graph_module.__file__), SIM / "core" / "scenario.py"):
         text = path.read_text()
         found = sorted(w for w in words if re.search(rf"\b{re.escape(w)}\b", text))
         assert not found, f"{path.name} names aiding nodes: {found}"

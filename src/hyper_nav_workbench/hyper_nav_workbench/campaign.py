@@ -4,7 +4,7 @@ world) go to a ``LocalCluster`` on this machine or to an existing cluster
 (``--scheduler tcp://host:port``), with one progress line, the per-run JSON
 files and results in run order, whatever the number of workers.
 
-    from hyper_nav_sim import campaign
+    from hyper_nav_workbench import campaign
     campaign.add_arguments(ap)                       # --workers, --scheduler, --max-workers
     res = campaign.run("repro_seed003", run_seed, jobs, keys=[f"seed{j.seed:03d}" for j in jobs],
                        options=campaign.options(args), out_dir=out / "runs")

@@ -2,7 +2,7 @@
 
 The same declarations are the fusion node's ``init.*`` ROS parameters, a
 scenario's optional ``filter.initial_state`` block and the ``initial_state``
-of a setup file written for imported data (``hyper_nav_sim.importer``).
+of a setup file written for imported data (``hyper_nav_workbench.core.importer``).
 Besides position, velocity and attitude they carry the initial *values* of
 the IMU error blocks (biases, scale factors: a calibration, or the end of a
 previous run); the initial *sigmas* are filter parameters

@@ -3,7 +3,7 @@ scenario's declared sources (``filter.sources``), simulated as the nodes
 publish them and converted as the fusion node converts them.
 
   * ``gnss_fix``, ``gnss_vel``: the loosely coupled fixes and velocities
-    (``offline_fly.gnss_measurements``, as before);
+    (``simulate.gnss_measurements``, as before);
   * ``gnss_raw`` (tightly coupled): the receiver's raw epochs and broadcast
     ephemerides through the source's own pseudorange core (the fusion
     node's ``gnss_raw`` source object), fed to the engine after each IMU
@@ -56,7 +56,6 @@ class Feed:
     def __init__(self, sc, traj, cfg):
         from hyper_nav_filter.sources import make_sources
 
-        from hyper_nav_workbench import offline_fly
         from hyper_nav_sim.core import simulate
         self.events: list[tuple] = []          # (t_s, order, apply(engine))
         self.hooks = []
@@ -66,7 +65,7 @@ class Feed:
         producers = _aiding_outputs(sc.data)
         kinds = {LOOSE[s.type] for s in specs if s.type in LOOSE}
         if kinds:
-            for n, m in enumerate(m for m in offline_fly.gnss_measurements(sc, traj) if m.kind in kinds):
+            for n, m in enumerate(m for m in simulate.gnss_measurements(sc, traj) if m.kind in kinds):
                 self.events.append((m.t_s, 0, n, lambda eng, m=m: eng.add_measurement(m)))
         for src in make_sources(specs, cfg):
             typ = src.spec.type
