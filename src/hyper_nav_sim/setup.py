@@ -29,5 +29,13 @@ setup(
             "radar_node = hyper_nav_sim.nodes.radar_node:main",
             "plot_scenarios = hyper_nav_sim.plot:main",
         ],
+        # the sensor nodes, declared to the launcher, the scenario loader and Monte Carlo (hyper_nav_sim.sensors)
+        "hyper_nav.sensor_nodes": [
+            "imu = hyper_nav_sim.nodes.descriptors:IMU",
+            "gnss = hyper_nav_sim.nodes.descriptors:GNSS",
+            "mag = hyper_nav_sim.nodes.descriptors:MAG",
+            "baro = hyper_nav_sim.nodes.descriptors:BARO",
+            "radar = hyper_nav_sim.nodes.descriptors:RADAR",
+        ],
     },
 )

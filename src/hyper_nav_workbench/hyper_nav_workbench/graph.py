@@ -59,28 +59,24 @@ from ament_index_python.packages import get_package_prefix
 
 from hyper_nav_filter import aiding_nodes
 from hyper_nav_filter.core.params import suggestion
+from hyper_nav_sim import sensors
 from hyper_nav_sim.core.scenario import (
     Scenario, ScenarioError, apply_overrides, bag_scenario, fusion_inputs, load_scenario,
 )
 
-SENSOR_TOPICS = {"imu": ["imu/data_raw"], "gnss": ["gnss/fix", "gnss/vel"], "mag": ["imu/mag"],
-                 "baro": ["baro/pressure"], "radar": ["radar/track"]}
-RAW_GNSS_TOPICS = ["gnss/raw", "gnss/ephemeris"]
-OPTIONAL_SENSORS = {"baro": "barometer", "radar": "radar"}    # node: scenario block that enables it
-# The aiding nodes (packages above this one) are not named here: each is declared by its
-# package (core/aiding_nodes.py: executable, scenario block, inputs, outputs, parameters).
+# Neither the sensor nodes nor the aiding nodes are named here: each is declared by its package
+# (hyper_nav_sim.sensors: executable, scenario block, topics and rates, parameters; hyper_nav_filter.aiding_nodes:
+# executable, scenario block, inputs, outputs, parameters).
 FUSION_OUTPUTS = ["nav/state", "nav/odom", "nav/fix"]
-TRACKER_OUTPUTS = ["track/fix", "track/vel"]     # tracker_node: starts with a radar block (seed 002)
-DEFAULT_NODES = ("truth", "imu", "gnss", "mag", "fusion")
-CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"), "imu": ("hyper_nav_sim", "imu_node"),
-                    "gnss": ("hyper_nav_sim", "gnss_node"), "mag": ("hyper_nav_sim", "mag_node"),
-                    "baro": ("hyper_nav_sim", "baro_node"), "radar": ("hyper_nav_sim", "radar_node"),
+TRACKER_INPUT = "radar/track"                    # tracker_node (seed 002): starts when a sensor publishes its input
+TRACKER_OUTPUTS = ["track/fix", "track/vel"]
+CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"),
                     "fusion": ("hyper_nav_filter", "fusion_node"), "recorder": ("hyper_nav_workbench", "recorder"),
                     "player": ("hyper_nav_workbench", "player"), "monitor": ("hyper_nav_workbench", "monitor"),
                     "tracker": ("hyper_nav_filter", "tracker_node"), "foxglove": ("hyper_nav_workbench", "foxglove_view"),
                     "guidance": ("hyper_nav_guidance", "guidance_node")}
 # ROS node names where they differ from the graph's process names
-CORE_ROS_NAMES = {"mag": "magnetometer", "baro": "barometer", "foxglove": "foxglove_view"}
+CORE_ROS_NAMES = {"foxglove": "foxglove_view"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
 CLOCK_SOURCES = ("truth", "player")          # publish /clock; their normal exit ends the run
 
@@ -94,26 +90,36 @@ class _NoAliasDumper(yaml.SafeDumper):
 
 
 CRITICAL_STREAMS = ("imu/data_raw", "nav/state")
-# topics a replay feeds into the graph (the rest of a recorded run is its own output)
-REPLAY_TOPICS = ("imu/data_raw", "imu/load", "gnss/fix", "gnss/vel", "gnss/raw", "gnss/ephemeris", "imu/mag",
-                 "baro/pressure", "radar/track", "truth/state")
 
 
-def _has_structure_load(sc: Scenario) -> bool:
-    """Whether the scenario's IMU node publishes ``imu/load`` (the elastic lever arm on)."""
-    la = sc.data.get("lever_arm")
-    return isinstance(la, dict) and bool(la.get("enabled", True))
+def replay_topics() -> tuple:
+    """Topics a replay feeds into the graph (the rest of a recorded run is its own output): the
+    installed sensor nodes' and the truth."""
+    return tuple(t for n in sensors.descriptors().values() for t in n.replay_topics) + ("truth/state",)
+
+
+def default_nodes() -> tuple:
+    """The graph without optional blocks: the truth, every sensor node started without a block of
+    its own (the installed descriptors), the fusion node."""
+    return ("truth",) + tuple(n.name for n in sensors.descriptors().values() if not n.optional) + ("fusion",)
+
+
+def __getattr__(name: str):
+    if name == "DEFAULT_NODES":                  # the former table, for importers (hyper_nav_guidance.pytest_plugin)
+        return default_nodes()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def executables() -> dict[str, tuple[str, str]]:
     """Every node the graph can start: name -> (package, executable), the
-    installed aiding nodes' included."""
-    return {**CORE_EXECUTABLES, **{n.name: (n.package, n.executable) for n in aiding_nodes.descriptors().values()}}
+    installed sensor and aiding nodes' included."""
+    return {**CORE_EXECUTABLES, **{n.name: (n.package, n.executable) for n in sensors.descriptors().values()},
+            **{n.name: (n.package, n.executable) for n in aiding_nodes.descriptors().values()}}
 
 
 def ros_name(name: str) -> str:
     """The ROS node name of a graph process (what its /diagnostics carry as hardware_id)."""
-    node = aiding_nodes.descriptors().get(name)
+    node = aiding_nodes.descriptors().get(name) or sensors.descriptors().get(name)
     return (node.ros_name if node else CORE_ROS_NAMES.get(name)) or name
 
 
@@ -149,13 +155,8 @@ def fusion_parameters(sc: Scenario) -> dict:
 
 def stream_rates_hz(sc: Scenario) -> dict:
     """Nominal rate of every periodic stream of a scenario (for the monitor's timeouts)."""
-    rates = {"imu/data_raw": sc["imu.rate_hz"], "gnss/fix": sc["gnss.rate_hz"], "gnss/vel": sc["gnss.rate_hz"],
-             "gnss/raw": sc["gnss.rate_hz"], "imu/mag": sc["magnetometer.rate_hz"],
-             "truth/state": sc["graph.truth_rate_hz"], "nav/state": float(sc.filter_config().output_rate_hz)}
-    if "barometer" in sc.data:
-        rates["baro/pressure"] = float(sc.data["barometer"].get("rate_hz", 10.0))
-    if "radar" in sc.data:
-        rates["radar/track"] = float(sc.data["radar"].get("rate_hz", 1.0))
+    rates = sensors.stream_rates_hz(sc)
+    rates.update({"truth/state": sc["graph.truth_rate_hz"], "nav/state": float(sc.filter_config().output_rate_hz)})
     return rates
 
 
@@ -201,9 +202,9 @@ class Graph:
             if self.replay:
                 nodes = ("player", "fusion")
             else:
-                nodes = DEFAULT_NODES[:-1] + tuple(n for n, block in OPTIONAL_SENSORS.items()
-                                                   if block in self.scenario.data) + ("fusion",)
-                nodes += ("tracker",) if "radar" in self.scenario.data else ()
+                sensor_nodes = [n for n in sensors.descriptors().values() if n.wanted(self.scenario.data)]
+                nodes = ("truth",) + tuple(n.name for n in sensor_nodes) + ("fusion",)
+                nodes += ("tracker",) if any(TRACKER_INPUT in n.topics(self.scenario) for n in sensor_nodes) else ()
                 nodes += ("guidance",) if "guidance" in self.scenario.data else ()   # issue 36: the loop
             nodes += tuple(n.name for n in aiding_nodes.descriptors().values()
                            if n.wanted(self.scenario.data, self._fusion_inputs))
@@ -241,10 +242,11 @@ class Graph:
     def _bag_topics(self) -> list[str]:
         from hyper_nav_workbench.core.bag import read_bag
         reader = read_bag(self.replay)
-        topics = [t.lstrip("/") for t in reader.topics if t.lstrip("/") in REPLAY_TOPICS]
+        known = replay_topics()
+        topics = [t.lstrip("/") for t in reader.topics if t.lstrip("/") in known]
         if not topics:
             why = f" ({reader.error})" if reader.error else ""
-            raise ScenarioError(f"{self.replay}: no replayable topics ({', '.join(REPLAY_TOPICS)}){why}")
+            raise ScenarioError(f"{self.replay}: no replayable topics ({', '.join(known)}){why}")
         return topics
 
     def _subscribers(self, topics) -> int:
@@ -254,7 +256,7 @@ class Graph:
             n += 1
         n += sum(1 for node in self._aiding()
                  if set(node.inputs(self.scenario.data.get(node.block) or {})) & set(topics))
-        if "tracker" in self.nodes and "radar/track" in topics:
+        if "tracker" in self.nodes and TRACKER_INPUT in topics:
             n += 1
         if "guidance" in self.nodes and self._guidance_nav_topic() in topics:
             n += 1
@@ -290,16 +292,19 @@ class Graph:
         return {t: n for t, n in self.extra.items() if n > 0 and t != "/clock"}
 
     def _sensor_nodes(self):
-        return [n for n in self.nodes if n in SENSOR_TOPICS]
+        return [n for n in self.nodes if n in sensors.descriptors()]
+
+    def _sensor_topics(self, name: str) -> dict:
+        """{topic: nominal rate} of a sensor node of this graph."""
+        return sensors.descriptors()[name].topics(self.scenario)
 
     def streams(self) -> list[str]:
         """Streams the monitor watches."""
         if self.replay:
-            topics = [t for t in self._replay_topics if t != "gnss/ephemeris"]
+            latched = {t for n in sensors.descriptors().values() for t in n.latched_topics}
+            topics = [t for t in self._replay_topics if t not in latched]
         else:
-            topics = [t for n in self._sensor_nodes() for t in SENSOR_TOPICS[n]]
-            if "gnss" in self.nodes and "raw" in (self.scenario.data.get("gnss") or {}):
-                topics.append("gnss/raw")
+            topics = [t for n in self._sensor_nodes() for t in self._sensor_topics(n)]
             if "truth" in self.nodes:
                 topics.append("truth/state")
         if "fusion" in self.nodes:
@@ -309,20 +314,17 @@ class Graph:
     def _params(self, name: str) -> dict:
         sc_path = str(self.scenario.path)
         diag = float(self.scenario["graph.diagnostics_period_s"])
-        if name in SENSOR_TOPICS:
+        if name in sensors.descriptors():          # declared by its package
             # each topic waits for its own consumers (an aiding node may take one topic of a sensor)
-            topics = list(SENSOR_TOPICS[name])
-            if name == "imu" and _has_structure_load(self.scenario):
-                topics.append("imu/load")        # the IMU node's structure-load stream (seed 000)
-            counts = {t: self._subscribers([t]) for t in topics}
-            p = {"scenario": sc_path, "min_subscribers": max(counts.values())}
+            node = sensors.descriptors()[name]
+            counts = {t: self._subscribers([t]) for t in node.waited_topics(self.scenario)}
+            p = {"scenario": sc_path, "min_subscribers": max(counts.values(), default=0)}
             if len(set(counts.values())) > 1:
                 p.update({"wait_topics": list(counts), "wait_counts": list(counts.values())})
-            if name == "gnss":
-                p["raw_min_subscribers"] = self._subscribers(["gnss/raw"])
+            p.update(node.parameters(self.scenario, self._subscribers))
         elif name == "truth":
-            sensors = len(self._sensor_nodes())
-            p = {"scenario": sc_path, "clock_subscribers": sensors + (1 if self.record else 0) + self.extra.get("/clock", 0),
+            n_sensors = len(self._sensor_nodes())
+            p = {"scenario": sc_path, "clock_subscribers": n_sensors + (1 if self.record else 0) + self.extra.get("/clock", 0),
                  "min_subscribers": self._subscribers(["truth/state"])}
             clock_nodes = [ros_name(n) for n in self._sensor_nodes()] + (["recorder"] if self.record else [])
             if clock_nodes:
@@ -348,7 +350,7 @@ class Graph:
         elif name == "tracker":
             from hyper_nav_sim.core.tracking_setup import tracker_parameters
             p = tracker_parameters(self.scenario)
-            p["radar.rate_hz"] = float(self.scenario["radar.rate_hz"])
+            p["radar.rate_hz"] = float(stream_rates_hz(self.scenario)[TRACKER_INPUT])
             p["min_output_subscribers"] = min(self._subscribers([t]) for t in TRACKER_OUTPUTS)
         elif name in aiding_nodes.descriptors():            # declared by its package
             node = aiding_nodes.descriptors()[name]
@@ -604,7 +606,8 @@ def _main(argv, state) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="override a scenario field, e.g. --set duration_s=60 (YAML value; null removes it)")
     ap.add_argument("--nodes", default=None, help="comma-separated node names (default: every node the "
-                    "scenario needs: truth, imu, gnss, mag, baro/radar when configured, fusion)")
+                    "scenario needs: truth, the sensor nodes (the optional ones when their blocks are "
+                    "configured), fusion, the aiding nodes)")
     ap.add_argument("--foxglove", nargs="?", const=8765, type=int, metavar="PORT",
                     help="serve the run live to the Foxglove app (ws://127.0.0.1:PORT, default 8765)")
     ap.add_argument("--foxglove-host", default="127.0.0.1", help="address the Foxglove server binds to")

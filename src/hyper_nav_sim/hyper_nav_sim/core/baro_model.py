@@ -73,8 +73,12 @@ class BaroErrors:
         return cls(out["pressure_noise_rel_ppm"] * 1e-6, out["pressure_noise_pa"], out["pressure_bias_pa"],
                    out["max_alt_m"])
 
+    def pressure_variance_pa2(self, p_pa):
+        """Variance (Pa^2) of a pressure reading p_pa: relative and absolute white noise."""
+        return (self.pressure_noise_rel * np.asarray(p_pa, float)) ** 2 + self.pressure_noise_pa**2
+
     def pressure_sigma_pa(self, p_pa):
-        return np.sqrt((self.pressure_noise_rel * np.asarray(p_pa, float)) ** 2 + self.pressure_noise_pa**2)
+        return np.sqrt(self.pressure_variance_pa2(p_pa))
 
 
 def simulate_baro_pa(alt_m, errors: BaroErrors, rng: np.random.Generator, pressure_pa_at=None):

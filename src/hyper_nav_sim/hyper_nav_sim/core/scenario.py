@@ -36,6 +36,7 @@ from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
 from hyper_nav_filter import aiding_nodes
 from hyper_nav_filter.core.params import suggestion, unknown_field
+from .. import sensors
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
 
@@ -113,8 +114,9 @@ SCHEMA = {
     "report.reference_att_deg": (NUM, False, None),
 }
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
-# (and the aiding nodes' blocks: core.aiding_nodes, read from the installed descriptors)
-OPTIONAL_BLOCKS = ("flight", "trajectory_file", "lever_arm", "barometer", "radar", "maneuvers", "tracker", "tracker_augmented",
+# (and the sensor and aiding nodes' blocks: hyper_nav_sim.sensors, hyper_nav_filter.aiding_nodes,
+# read from the installed descriptors)
+OPTIONAL_BLOCKS = ("flight", "trajectory_file", "lever_arm", "maneuvers", "tracker", "tracker_augmented",
                    "world", "guidance")
 POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
             "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
@@ -141,31 +143,26 @@ def opaque_blocks() -> set[str]:
 def known_fields() -> dict[str, frozenset]:
     """Allowed keys of every block, by dotted block path ('' = top level):
     the SCHEMA above plus the fields each model block's parser takes."""
-    from .baro_model import CONFIG_FIELDS as BARO_FIELDS
     from .gnss import receiver
-    from .imu_model import CONFIG_FIELDS as IMU_FIELDS, IGNORED_FIELDS as IMU_IGNORED
     from .lever_arm import _DEFAULTS as LEVER_ARM_FIELDS
-    from .mag_model import CONFIG_FIELDS as MAG_FIELDS
-    from .radar import EarlyWarningRadar
     from hyper_nav_filter.core.initial_state import INIT_PARAMS
     tree: dict[str, set] = {}
     for dotted in SCHEMA:
         parts = dotted.split(".")
         for i in range(len(parts)):
             tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
-    tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block())
-    tree["imu"] |= set(IMU_FIELDS) | set(IMU_IGNORED) | {"grade"}    # grade: core.sensor_catalogue
-    tree["gnss"] |= {"raw", "outages_s"}       # outages_s: loose fixes withheld in [t0, t1) windows
+    tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block()) | set(sensors.blocks())
+    for block, nodes in sensors.blocks().items():      # each sensor node's block: the keys its descriptor allows
+        for node in nodes:
+            if node.fields is not None:
+                tree.setdefault(block, set()).update(node.fields())
     tree["gnss.raw"] = set(receiver._TOP_FIELDS)
     tree["gnss.raw.clock"] = set(receiver._CLOCK_FIELDS)
     tree["gnss.raw.lock"] = set(receiver._LOCK_FIELDS)
-    tree["magnetometer"] |= set(MAG_FIELDS)
     tree["filter"] |= {"config", "sources", "initial_state"}
     tree["filter.initial_state"] = {p.name for p in INIT_PARAMS}              # hyper_nav_filter.core.initial_state
     tree["filter.config"] = {f.name for f in fields(FilterConfig) if f.init}   # the filter's declarations
     tree["lever_arm"] = set(LEVER_ARM_FIELDS)
-    tree["barometer"] = set(BARO_FIELDS) | {"rate_hz"}
-    tree["radar"] = {f.name for f in fields(EarlyWarningRadar)}
     return {k: frozenset(v) for k, v in tree.items()}
 
 
@@ -529,24 +526,18 @@ def filter_sources(data: dict) -> dict:
 
 def _validate_models(data: dict, source: str) -> None:
     """The optional model blocks validate themselves; errors name the field."""
-    from .baro_model import BaroErrors
     from .boost_glide_config import parse_flight
     from .guidance_config import GuidanceConfig
-    from .imu_model import ImuErrors
     from .lever_arm import LeverArmConfig
-    from .mag_model import MagnetometerErrors
     from .world import WorldConfig
-    from .gnss_model import parse_outages
     from .trajectory_file import check_config as check_trajectory_file
     checks = [("world", lambda d: WorldConfig.from_config(d)),
-              ("gnss", lambda d: parse_outages(d.get("outages_s"))),
               ("trajectory_file", lambda d: check_trajectory_file(d)),
-              ("imu", lambda d: ImuErrors.from_config(d)),
-              ("magnetometer", lambda d: MagnetometerErrors.from_config(d)),
               ("flight", lambda d: parse_flight(d)),
               ("guidance", lambda d: GuidanceConfig.from_config(d)),
-              ("lever_arm", lambda d: LeverArmConfig.from_config(d)),
-              ("barometer", lambda d: BaroErrors.from_config(d, prefix="barometer"))]
+              ("lever_arm", lambda d: LeverArmConfig.from_config(d))]
+    # each sensor node's block, by its descriptor's validator (hyper_nav_sim.sensors)
+    checks += [(node.block, node.validate) for node in sensors.descriptors().values() if node.validate is not None]
     for key, check in checks:
         if key in data:
             try:

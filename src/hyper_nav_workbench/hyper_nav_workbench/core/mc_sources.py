@@ -8,9 +8,13 @@ publish them and converted as the fusion node converts them.
     ephemerides through the source's own pseudorange core (the fusion
     node's ``gnss_raw`` source object), fed to the engine after each IMU
     sample as the node does;
-  * ``baro_height``: the barometer's pressures as the baro node publishes
-    them (pressure, variance), through the source's converter (US76
-    pressure altitude, sigma through dp/dh, floors and ceilings).
+  * a source on a sensor node's output (``baro_height`` on the barometer's
+    ``baro/pressure``, or a user's sensor): the messages the node publishes,
+    made by the node's own message code (``SensorNode.mc_feed``, declared by
+    its package, e.g. ``hyper_nav_sim.nodes.baro_messages``), through the
+    source's converter (for the barometer: US76 pressure altitude, sigma
+    through dp/dh, floors and ceilings). A sensor node that declares no feed
+    is refused, naming the source and the node.
 
   * a source on an aiding node's output (map matching: ``horizontal_fix``
     / ``position_fix`` on the geomag node's ``geomag/fix``): the node's own
@@ -24,16 +28,18 @@ No rclpy.
 """
 from __future__ import annotations
 
-from types import SimpleNamespace
-
-import numpy as np
-
 LOOSE = {"gnss_fix": "gnss_pos", "gnss_vel": "gnss_vel"}
 
 
-def _stamp(t_s: float):
-    ns = int(round(t_s * 1e9))
-    return SimpleNamespace(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+def _sensor_outputs(sc) -> dict:
+    """{topic: SensorNode}: the topics the installed sensor nodes this scenario runs publish."""
+    from hyper_nav_sim import sensors
+    out = {}
+    for node in sensors.descriptors().values():
+        if node.wanted(sc.data):
+            for topic in node.topics(sc):
+                out[str(topic).lstrip("/")] = node
+    return out
 
 
 def _aiding_outputs(data: dict) -> dict:
@@ -63,6 +69,8 @@ class Feed:
         self.routes: dict[str, list] = {}       # aiding output topic -> the fusion sources on it
         specs = sc.filter_source_specs()
         producers = _aiding_outputs(sc.data)
+        sensor_topics = _sensor_outputs(sc)
+        sensor_routes: dict[str, list] = {}     # sensor output topic -> the fusion sources on it
         kinds = {LOOSE[s.type] for s in specs if s.type in LOOSE}
         if kinds:
             for n, m in enumerate(m for m in simulate.gnss_measurements(sc, traj) if m.kind in kinds):
@@ -89,20 +97,24 @@ class Feed:
                         tight.add_raw(ep.raw())
                     self.events.append((ep.t_s, 1, n, raw))
                 self.hooks.append(lambda eng, tight=tight: tight.feed(eng))
-            elif typ == "baro_height":
-                from hyper_nav_sim.core.baro_model import BaroErrors
-                t_s, p_pa, _ = simulate.baro_stream(sc, traj)
-                ok = np.isfinite(p_pa)
-                err = BaroErrors.from_config(sc.data["barometer"], prefix="barometer")
-                for n, (t, p) in enumerate(zip(t_s[ok], p_pa[ok])):
-                    msg = SimpleNamespace(header=SimpleNamespace(stamp=_stamp(float(t)), frame_id="base_link"),
-                                          fluid_pressure=float(p),
-                                          variance=float((err.pressure_noise_rel * p) ** 2 + err.pressure_noise_pa ** 2))
-                    self.events.append((float(t), 2, n, lambda eng, msg=msg, src=src: src.on_message("main", msg, eng)))
+            elif topic in sensor_topics:
+                node = sensor_topics[topic]
+                if node.mc_feed is None:
+                    raise ValueError(f"filter.sources.{src.spec.id}: its topic {topic!r} is sensor node "
+                                     f"{node.name!r}'s output, which is not drawn in Monte Carlo campaigns "
+                                     f"(the node declares no mc_feed)")
+                sensor_routes.setdefault(topic, []).append(src)
             else:
                 raise ValueError(f"filter.sources.{src.spec.id}: type {typ!r} on {topic!r} is not drawn in Monte "
                                  "Carlo campaigns (not a simulated sensor's type, and no aiding node this scenario "
                                  "configures publishes that topic)")
+        # each sensor node's messages, made by its own message code, to the sources on their topics (at equal
+        # stamps after the GNSS fixes and raw epochs, before the aiding nodes' outputs)
+        for k, node in enumerate({id(n): n for t, n in sensor_topics.items() if t in sensor_routes}.values()):
+            for n, (t, topic, msg) in enumerate(node.mc_feed(sc, traj)):
+                for j, src in enumerate(sensor_routes.get(str(topic).lstrip("/"), ())):
+                    self.events.append((float(t), 2, (k, n, j),
+                                        lambda eng, msg=msg, src=src: src.on_message("main", msg, eng)))
         for node in {id(n): n for t, n in producers.items() if t in self.routes}.values():
             feed = node.mc_feed(sc, traj, cfg, self._publish)
             self.aiding.append(feed)
