@@ -105,6 +105,7 @@ def test_no_simulator_command_simulates_nothing():
     """The simulator's executables are its nodes and the scenario plots: every other command is the workbench's."""
     import re
     setup = (SRC / "hyper_nav_sim" / "setup.py").read_text()
-    exes = set(re.findall(r'"(\w+) = hyper_nav_sim\.', setup))
+    scripts = setup.split('"console_scripts"', 1)[1].split("]", 1)[0]
+    exes = set(re.findall(r'"(\w+) = hyper_nav_sim\.', scripts))
     assert exes == {"truth_node", "imu_node", "gnss_node", "mag_node", "baro_node", "radar_node", "plot_scenarios"}
 

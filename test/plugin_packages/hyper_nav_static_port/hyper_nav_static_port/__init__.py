@@ -1,0 +1,1 @@
+"""A second static-pressure port: a new sensor in its own package (model, node, descriptor)."""
