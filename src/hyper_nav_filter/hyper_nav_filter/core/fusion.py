@@ -68,7 +68,12 @@ def _tol(t: float) -> float:
     float's resolution (GPST or Unix stamps, ~1e9 s: 4 ulps = 1 us). Without
     it an event stamped at an epoch that reached the engine before the
     epoch's IMU sample was never applied at such stamps (t + 1e-9 == t)."""
+    if -_TOL_ULP_FROM < t < _TOL_ULP_FROM:     # 4 ulps < 1 ns below 2^21 s: no ulp to take (per event and epoch)
+        return _EPS_S
     return max(_EPS_S, 4.0 * math.ulp(t))
+
+
+_TOL_ULP_FROM = 2.0 ** 21                    # ulp(t) <= 2^-32 s below it: 4 ulps <= 0.93 ns
 _TRIM_CHUNK = 64               # epochs out of the window are dropped from memory this many at a time
 
 
@@ -399,7 +404,10 @@ class FusionEngine:
             self._catch_up()
         ep = self._epochs[-1] if self._epochs else None
         anchor = ep.snap if ep is not None else self._base
-        pred = self.predictor.step(anchor, self._revision, self._ahead, self._new)
+        if self._ahead:
+            pred = self.predictor.step(anchor, self._revision, self._ahead, self._new)
+        else:                                     # no lead: the filter's own state (OutputPredictor.step)
+            pred = self.predictor.anchored(anchor, self._revision)
         self._new = []
         mode, kinds = self._mode(ep) if ep is not None else (MODE_INITIALIZING, ())
         self.current = CurrentSolution.of_prediction(self.kf, self.predictor, pred, mode, kinds)

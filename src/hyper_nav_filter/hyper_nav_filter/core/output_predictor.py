@@ -49,6 +49,7 @@ from typing import NamedTuple
 import numpy as np
 
 RULES = ("repropagate", "complementary")
+_new_tuple = tuple.__new__           # a NamedTuple from its fields without its generated __new__ (per IMU sample)
 _EPS_S = 1e-9
 
 
@@ -136,7 +137,7 @@ class OutputPredictor:
             self._hist.clear()
         self.reanchors += count
         self._rev, self._anchor_t = revision, anchor.t_s
-        return Predicted(anchor.t_s, anchor.x_nav, anchor.values, anchor.imu_prev, anchor)
+        return _new_tuple(Predicted, (anchor.t_s, anchor.x_nav, anchor.values, anchor.imu_prev, anchor))
 
     def _feed_back(self, anchor, dt_s: float) -> None:
         """PX4's complementary correction: the predicted state at the anchor's
