@@ -143,12 +143,12 @@ def _stream_spec(doc: dict, stream: str, base_dir: pathlib.Path) -> dict | None:
 def _real_data(doc: dict, data_dir) -> dict:
     """``{real_data}`` in a stream's file path -> the shared recordings folder
     (``data_dir``, else ``spp.default_data_dir()``)."""
-    from hyper_nav_workbench.spp import default_data_dir
     for stream in ("imu", "gnss", "truth"):
         spec = doc.get(stream)
         if isinstance(spec, dict):
             for key in ("file", "nav"):
                 if isinstance(spec.get(key), str) and "{real_data}" in spec[key]:
+                    from .spp import default_data_dir       # only then: the spp module costs 0.4 s to import
                     spec[key] = spec[key].replace("{real_data}", str(data_dir or default_data_dir()))
     return doc
 

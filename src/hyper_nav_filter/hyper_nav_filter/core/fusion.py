@@ -68,7 +68,12 @@ def _tol(t: float) -> float:
     float's resolution (GPST or Unix stamps, ~1e9 s: 4 ulps = 1 us). Without
     it an event stamped at an epoch that reached the engine before the
     epoch's IMU sample was never applied at such stamps (t + 1e-9 == t)."""
+    if -_TOL_ULP_FROM < t < _TOL_ULP_FROM:     # 4 ulps < 1 ns below 2^21 s: no ulp to take (per event and epoch)
+        return _EPS_S
     return max(_EPS_S, 4.0 * math.ulp(t))
+
+
+_TOL_ULP_FROM = 2.0 ** 21                    # ulp(t) <= 2^-32 s below it: 4 ulps <= 0.93 ns
 _TRIM_CHUNK = 64               # epochs out of the window are dropped from memory this many at a time
 
 
@@ -147,7 +152,10 @@ class CurrentSolution(Solution):
     def of_prediction(cls, kf, predictor, pred, mode, sources) -> "CurrentSolution":
         a = pred.anchor
         sol = cls(pred.t_s, None, None, mode, a.n_updates, a.n_rejected, a.last_nis, sources=sources)
-        snap = a._replace(t_s=pred.t_s, x_nav=pred.x_nav, values=pred.values, imu_prev=pred.imu)
+        if pred.x_nav is a.x_nav and pred.t_s == a.t_s and pred.values is a.values and pred.imu is a.imu_prev:
+            snap = a                              # no lead: the anchor itself (the same fields)
+        else:
+            snap = a._replace(t_s=pred.t_s, x_nav=pred.x_nav, values=pred.values, imu_prev=pred.imu)
         sol._src = (kf, snap, pred.imu)
         sol.pred, sol._predictor = pred, predictor
         return sol
@@ -163,6 +171,59 @@ class CurrentSolution(Solution):
             kf, snap, _ = self._src
             self._P = kf.P_enu(snap._replace(P=self._predictor.covariance(self.pred)))
         return self._P
+
+
+def _lazy_source(sols):
+    """The filter all of ``sols`` are lazy views of (``Solution.of`` /
+    ``CurrentSolution.of_prediction``, not yet read), else None."""
+    if not sols:
+        return None
+    kf = None
+    for s in sols:
+        src = getattr(s, "_src", None)
+        if src is None or s._state is not None or type(s) not in (Solution, CurrentSolution):
+            return None
+        if kf is None:
+            kf = src[0]
+        elif src[0] is not kf:
+            return None
+    return kf
+
+
+def solution_arrays(sols) -> dict | None:
+    """{"t", "lat", "lon", "alt", "vel", "C"} of many solutions at once, the
+    numbers each ``.state`` gives, read from the snapshots' nominal vectors in
+    one array operation when the frame's view is a reading of its vector
+    (``frame.view_rows``: ENU); None otherwise (the caller reads ``.state``).
+    (672,400 solutions: one stack instead of a NavState each.)"""
+    kf = _lazy_source(sols)
+    view_rows = getattr(kf.frame, "view_rows", None) if kf is not None else None
+    if view_rows is None:
+        return None
+    out = {"t": np.array([s.t_s for s in sols])}
+    out.update(view_rows(np.array([s._src[1].x_nav for s in sols])))
+    return out
+
+
+def solution_covariances(sols) -> list:
+    """``s.P`` of each solution (the same arrays): where the frame's error
+    convention is ENU's (``to_enu`` the identity), the snapshot's own P, or
+    for a current-time state with no lead its anchor's P, without the
+    per-solution transform and prediction calls."""
+    kf = _lazy_source(sols)
+    if kf is None or not getattr(kf.frame, "enu_convention", False):
+        return [s.P for s in sols]
+    out = []
+    for s in sols:
+        if s._P is not None:
+            out.append(s._P)
+        elif type(s) is Solution:
+            out.append(s._src[1].P)
+        elif s.pred.imu is None or s.pred.lead_s <= 0.0:       # OutputPredictor.covariance with no lead
+            out.append(s.pred.anchor.P)
+        else:
+            out.append(s.P)
+    return out
 
 
 class _Epoch:
@@ -189,7 +250,7 @@ class FusionEngine:
         self._epochs: list[_Epoch] = []
         self._times: list[float] = []
         self._n_out_of_window = 0                 # leading epochs already out of the window (see _trim)
-        self._mode_cache = None
+        self._mode_cache = ()                     # (last_accept, t_lo, t_hi, result), up to two (_mode)
         self._events: list[tuple] = []           # sorted (t, priority, kind, seq, event): arrival order
                                                   # within an epoch does not matter
         self._seq = 0
@@ -343,7 +404,10 @@ class FusionEngine:
             self._catch_up()
         ep = self._epochs[-1] if self._epochs else None
         anchor = ep.snap if ep is not None else self._base
-        pred = self.predictor.step(anchor, self._revision, self._ahead, self._new)
+        if self._ahead:
+            pred = self.predictor.step(anchor, self._revision, self._ahead, self._new)
+        else:                                     # no lead: the filter's own state (OutputPredictor.step)
+            pred = self.predictor.anchored(anchor, self._revision)
         self._new = []
         mode, kinds = self._mode(ep) if ep is not None else (MODE_INITIALIZING, ())
         self.current = CurrentSolution.of_prediction(self.kf, self.predictor, pred, mode, kinds)
@@ -593,9 +657,9 @@ class FusionEngine:
         if ep.snap.n_updates == 0:
             return MODE_INITIALIZING, ()
         t = ep.imu.t_s
-        c = self._mode_cache
-        if c is not None and c[0] is ep.last_accept and c[1] < t <= c[2]:
-            return c[3]
+        for c in self._mode_cache or ():            # (None: emptied)
+            if c[0] is ep.last_accept and c[1] < t <= c[2]:
+                return c[3]
         expiry = {key: t_a + MODE_WINDOW_S for key, t_a in ep.last_accept.items()}
         recent = [key for key, t_end in expiry.items() if t <= t_end]
         if not recent:
@@ -604,8 +668,11 @@ class FusionEngine:
             modes = {_COUPLING_MODE.get(coupling, MODE_AIDED) for _, coupling in recent}
             mode = next(m for m in (MODE_TIGHTLY_COUPLED, MODE_LOOSELY_COUPLED, MODE_AIDED) if m in modes)
             result = mode, tuple(sorted({kind for kind, _ in recent}))
-        self._mode_cache = (ep.last_accept, max((e for e in expiry.values() if t > e), default=-math.inf),
-                            min((e for e in expiry.values() if t <= e), default=math.inf), result)
+        # two entries: the released epoch (output_delay_s behind) and the newest one (the current-time
+        # state) ask in turn (with one entry, each evicted the other's at every change of last_accept)
+        self._mode_cache = (self._mode_cache or ())[-1:] + ((
+            ep.last_accept, max((e for e in expiry.values() if t > e), default=-math.inf),
+            min((e for e in expiry.values() if t <= e), default=math.inf), result),)
         return result
 
     def _solution(self, ep: _Epoch) -> Solution:

@@ -43,8 +43,9 @@ import numpy as np
 
 from .eskf import FilterSnapshot
 from .fast import enu_run
-from .fusion import _EPS_S, FusionEngine, _Epoch
+from .fusion import _EPS_S, CurrentSolution, FusionEngine, _Epoch
 from .nav_state import ImuSample
+from .output_predictor import Predicted
 
 MIN_RUN = 16         # shorter runs go sample by sample: the compiled call's fixed cost (argument checks,
                      # the epoch array) is a few epochs' (default rates, 4-sample runs: 37-39 us per epoch
@@ -107,10 +108,13 @@ def add_imu_rates_run(eng: FusionEngine, stamps: np.ndarray, rates: np.ndarray, 
     n = kf.P.shape[0]
     nx = len(kf.x_nav)
     E = np.empty((m, nx + 8))                  # rows stay referenced by the epochs (views)
-    PS = getattr(eng, "_run_P_buffer", None)   # copied out per epoch: one buffer per engine, reused
-    if PS is None or PS.shape[0] < m or PS.shape[1] != n:
-        PS = np.empty((max(m, 256), n, n))
-        eng._run_P_buffer = PS
+    if eng.current_log is not None:            # every epoch's P stays referenced (the log): the epochs take views
+        PS = np.empty((m, n, n))
+    else:                                      # copied out per epoch: one buffer per engine, reused
+        PS = getattr(eng, "_run_P_buffer", None)
+        if PS is None or PS.shape[0] < m or PS.shape[1] != n:
+            PS = np.empty((max(m, 256), n, n))
+            eng._run_P_buffer = PS
     k, _, Phi = enu_run.predict_run(kf.x_nav, kf.values, kf.P, float(t0), pdth, pdv, pdt, has_prev, stamps, rates,
                                     forces, rows, t_event, float(kf.cfg.imu_gap_s), *kf.sys.fast_args, E, PS)
     if k:
@@ -128,17 +132,25 @@ def _store(eng: FusionEngine, k: int, E, PS, nx: int, Phi) -> None:
     new_imu, new_snap, new_ep = tuple.__new__, tuple.__new__, _Epoch
     on_epoch = getattr(eng, "on_epoch", None)
     # the current-time state per sample: with no fusion horizon (common_case) it is the filter's state at the
-    # epoch just stored, formed by the engine's own _predict_current, as the per-sample path forms it
-    current = eng._predict_current if eng.current_log is not None else None
+    # epoch just stored, as the per-sample path's _predict_current forms it (OutputPredictor.anchored, no lead:
+    # the same Predicted and CurrentSolution, the predictor re-anchored once for the run below)
+    log = eng.current_log
+    share = log is not None                       # the log keeps every P: views of this run's buffer
+    mode_of, rev, new_pred, new_cur = eng._mode, eng._revision, tuple.__new__, CurrentSolution.of_prediction
+    predictor = eng.predictor
     imu = snap = None
     X, DTH, DV = E[:k, :nx], E[:k, nx:nx + 3], E[:k, nx + 3:nx + 6]
     for j, (t, dt) in enumerate(zip(E[:k, nx + 6].tolist(), E[:k, nx + 7].tolist())):
         imu = new_imu(ImuSample, (t, dt, DTH[j], DV[j], None))
-        snap = new_snap(FilterSnapshot, (t, X[j], vals, PS[j].copy(), imu, cfg, nu, nr, nis, stats, watch))
-        epochs.append(new_ep(imu, snap, last_accept))
+        x = X[j]
+        snap = new_snap(FilterSnapshot, (t, x, vals, PS[j] if share else PS[j].copy(), imu, cfg, nu, nr, nis,
+                                         stats, watch))
+        ep = new_ep(imu, snap, last_accept)
+        epochs.append(ep)
         times.append(t)
-        if current is not None:
-            current()
+        if share:
+            mode, kinds = mode_of(ep)
+            log.append(new_cur(kf, predictor, new_pred(Predicted, (t, x, vals, imu, snap)), mode, kinds))
         if on_epoch is not None:                  # a per-sample consumer
             on_epoch(imu, snap)
     kf.t_s, kf.x_nav, kf.P, kf.imu_prev = snap.t_s, snap.x_nav, snap.P, imu
@@ -148,5 +160,8 @@ def _store(eng: FusionEngine, k: int, E, PS, nx: int, Phi) -> None:
     eng.counters["imu_accepted"] += k
     if times[eng._n_out_of_window] < imu.t_s - cfg.reprocess_window_s:
         eng._trim()
-    if current is None:
+    if share:                                     # the predictor at the run's last epoch, as k steps leave it
+        predictor.anchored(snap, rev, count=k)
+        eng.current, eng._new = log[-1], []
+    else:
         eng._predict_current()                    # ``current`` at the run's last sample

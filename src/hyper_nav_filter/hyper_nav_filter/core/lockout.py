@@ -117,9 +117,9 @@ def gated(w: Watch, t_s: float) -> Watch:
 def is_far(residual: np.ndarray, R: np.ndarray) -> bool:
     """The innovation is beyond FAR_SIGMA of the measurement's own noise
     (r^T R^-1 r / dof > FAR_SIGMA^2): the solution departs from the source."""
-    R = np.asarray(R, float)
+    from .fast.update import innovation_q
     try:
-        q = float(residual @ np.linalg.solve(R, residual))
+        q = float(innovation_q(np.ascontiguousarray(residual, dtype=float), np.ascontiguousarray(R, dtype=float)))
     except np.linalg.LinAlgError:
         return False
     return q > FAR_SIGMA * FAR_SIGMA * len(residual)

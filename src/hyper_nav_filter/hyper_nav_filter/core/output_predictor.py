@@ -49,6 +49,7 @@ from typing import NamedTuple
 import numpy as np
 
 RULES = ("repropagate", "complementary")
+_new_tuple = tuple.__new__           # a NamedTuple from its fields without its generated __new__ (per IMU sample)
 _EPS_S = 1e-9
 
 
@@ -103,9 +104,7 @@ class OutputPredictor:
         ``ahead``: the IMU samples after the anchor, oldest first; ``new``:
         those of them accepted since the last call."""
         if not ahead:                       # no lead: the filter's own state
-            self._reanchor(anchor, ())
-            self._rev, self._anchor_t = revision, anchor.t_s
-            return Predicted(anchor.t_s, anchor.x_nav, anchor.values, anchor.imu_prev, anchor)
+            return self.anchored(anchor, revision)
         chain_ok = self._t is not None and self._t >= anchor.t_s - _EPS_S
         if self.rule == "repropagate":
             if not chain_ok or revision != self._rev:
@@ -127,6 +126,18 @@ class OutputPredictor:
                     self._feed_back(anchor, anchor.t_s - max(self._anchor_t, anchor.t_s - 1.0))
         self._rev, self._anchor_t = revision, anchor.t_s
         return Predicted(self._t, self._x, self._vals, self._prev, anchor)
+
+    def anchored(self, anchor, revision: int, count: int = 1) -> Predicted:
+        """``step`` with no sample ahead of the anchor: the filter's own state
+        (the chain re-anchored there). ``count``: the steps this stands for
+        (a compiled run's epochs, ``core.fusion_run``: only the last one's
+        chain matters, each counts as a re-anchoring)."""
+        self._t, self._x, self._vals, self._prev = anchor.t_s, anchor.x_nav, anchor.values, anchor.imu_prev
+        if self._hist:
+            self._hist.clear()
+        self.reanchors += count
+        self._rev, self._anchor_t = revision, anchor.t_s
+        return _new_tuple(Predicted, (anchor.t_s, anchor.x_nav, anchor.values, anchor.imu_prev, anchor))
 
     def _feed_back(self, anchor, dt_s: float) -> None:
         """PX4's complementary correction: the predicted state at the anchor's

@@ -422,7 +422,8 @@ def payloads(msgtype: str, prototype, columns: dict, n: int) -> np.ndarray:
     from hyper_nav_workbench.core.bag import serialize
     raw = np.frombuffer(serialize(prototype, msgtype), np.uint8)
     fields = {f.path: f for f in layout(msgtype, raw.tobytes())[0]}
-    block = np.tile(raw, (n, 1))
+    block = np.empty((n, len(raw)), np.uint8)
+    block[:] = raw                          # the prototype in every row (np.tile: byte by byte, 10x slower)
     for path, values in columns.items():
         f = fields.get(path)
         if f is None or f.dtype.startswith("S"):

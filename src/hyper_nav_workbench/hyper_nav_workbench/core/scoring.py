@@ -51,7 +51,13 @@ def states_from_msgs(msgs) -> dict:
 
 
 def states_from_solutions(sols) -> dict:
-    """States of the fusion core's released solutions (``core.fusion.Solution``)."""
+    """States of the fusion core's released solutions (``core.fusion.Solution``):
+    read from their snapshots at once where the frame allows
+    (``fusion.solution_arrays``, the same numbers), else one ``.state`` each."""
+    from hyper_nav_filter.core.fusion import solution_arrays
+    arrays = solution_arrays(sols)
+    if arrays is not None:
+        return arrays
     return {"t": np.array([s.t_s for s in sols]), "lat": np.array([s.state.lat_rad for s in sols]),
             "lon": np.array([s.state.lon_rad for s in sols]), "alt": np.array([s.state.alt_m for s in sols]),
             "vel": np.array([s.state.vel_enu_mps for s in sols]).reshape(-1, 3),
@@ -78,12 +84,13 @@ def state_errors(nav: dict, truth: dict) -> dict:
             "att_enu_deg": np.rad2deg(att)}
 
 
-def errors(nav: dict, truth: dict) -> dict:
+def errors(nav: dict, truth: dict, index: bool = False):
     """Errors (estimate - truth) at the epochs both have (matched to 1 us; a
     repeated truth epoch: its last row), in time order whatever order the
     states came in (so every figure made from them, sums included, does not
     depend on the arrival order). Pairing by sorted keys: one array operation
-    (672k epochs: 0.3 s; a Python dict per epoch took 2 s)."""
+    (672k epochs: 0.3 s; a Python dict per epoch took 2 s). ``index``: also
+    the row of ``nav`` of each error row, (errors, rows)."""
     kt = np.round(np.asarray(truth["t"], float) * 1e6)
     order = np.argsort(kt, kind="stable")
     ks = kt[order]
@@ -96,7 +103,8 @@ def errors(nav: dict, truth: dict) -> dict:
     ti = order[j[found]]
     by_t = np.argsort(np.asarray(nav["t"], float)[ni], kind="stable")
     ni, ti = ni[by_t], ti[by_t]
-    return state_errors({k: v[ni] for k, v in nav.items()}, {k: v[ti] for k, v in truth.items()})
+    err = state_errors({k: v[ni] for k, v in nav.items()}, {k: v[ti] for k, v in truth.items()})
+    return (err, ni) if index else err
 
 
 def solution_errors(sols, traj) -> dict:

@@ -36,6 +36,7 @@ _I3 = np.eye(3)
 class EnuFrame:
     name = "ENU"
     compiled_runs = True     # core.fusion_run: this frame's predict has a compiled run over IMU arrays
+    enu_convention = True    # the error convention is ENU's: to_enu is the identity (None)
     nominal_size = NOMINAL_SIZE
 
     def __init__(self, cfg, initial: NavState):
@@ -53,6 +54,13 @@ class EnuFrame:
     def view(self, x: np.ndarray, t_s: float):
         """(lat, lon, alt, vel_enu, C_b_n) of a nominal vector."""
         return float(x[X_LAT]), float(x[X_LON]), float(x[X_ALT]), x[X_VEL].copy(), x[X_C].reshape(3, 3).copy()
+
+    def view_rows(self, X: np.ndarray) -> dict:
+        """``view`` of many nominal vectors at once (rows of X): {"lat", "lon",
+        "alt", "vel", "C"} arrays, the same numbers (a reading of the vector)."""
+        X = np.asarray(X, float).reshape(-1, NOMINAL_SIZE)
+        return {"lat": X[:, X_LAT].copy(), "lon": X[:, X_LON].copy(), "alt": X[:, X_ALT].copy(),
+                "vel": X[:, X_VEL].copy(), "C": X[:, X_C].reshape(-1, 3, 3).copy()}
 
     def to_enu(self, x: np.ndarray, t_s: float):
         """Error transform own -> ENU convention for att/vel/pos: None = identity."""
