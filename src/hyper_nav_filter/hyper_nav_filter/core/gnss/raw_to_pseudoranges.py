@@ -60,7 +60,6 @@ import numpy as np
 from .. import earth
 from ..params import ConfigError
 from ..nav_state import NavState
-from ..tightly_coupled import Pseudoranges
 from .ephemeris import C_MPS, BroadcastEphemeris, select_ephemeris, system_time_s
 from .geometry import elevation_azimuth, satellite_states_at_reception
 from .propagation import (CARRIER_HZ, KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT, hopfield_delay_m,
@@ -322,6 +321,7 @@ def corrected_pseudoranges(raw: RawGnssEpoch, channels, ephs, r_ant_e_m, correct
         g = 1.0 - np.einsum("ki,ki->k", u, np.einsum("kij,kj->ki", dR, r_s) - np.einsum("kij,kj->ki", R, v_s)) / C_MPS
         rate = g * (np.asarray(raw.rate_mps, float)[idx] + C_MPS * drift_s)
         rate_var = np.asarray(raw.rate_sigma_mps, float)[idx] ** 2
+    from ..tightly_coupled import Pseudoranges
     return Pseudoranges(float(raw.t_s), r_s, v_s, pr, pr_var, rate, rate_var)
 
 
@@ -727,3 +727,13 @@ class TightGnssInput:
                 ok, _ = engine.add_measurement(m)
                 n += int(ok)
         return n
+
+
+def __getattr__(name):
+    """``Pseudoranges`` (the tightly coupled filter's measurement) on demand:
+    its module loads the filter's blocks and numba, which the ``spp`` command
+    (that imports this module for its records) never needs."""
+    if name == "Pseudoranges":
+        from ..tightly_coupled import Pseudoranges
+        return Pseudoranges
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
