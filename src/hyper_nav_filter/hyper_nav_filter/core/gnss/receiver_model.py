@@ -255,8 +255,36 @@ class Corrected:
     sat_clock_drift_sps: np.ndarray
 
 
+def _static(obs: SatelliteObservations) -> tuple:
+    """Per-satellite numbers of an epoch that no position changes (earth
+    rotation rate of each record's system, system letters, record accuracy),
+    formed once per epoch and kept on the observations: :func:`corrected_at`
+    runs three or more times an epoch."""
+    st = obs.__dict__.get("_static")
+    if st is None:
+        we = np.array([constants(e.system)[1] for e in obs.ephemerides])
+        systems = np.array([c.system for c in obs.choices])
+        acc = np.array([e.accuracy_m for e in obs.ephemerides])
+        st = (we, systems, acc)
+        object.__setattr__(obs, "_static", st)
+    return st
+
+
+def _cn0_parts(obs: SatelliteObservations, em: ErrorModel) -> tuple:
+    """The C/N0 of each satellite's two signals (the first for the second
+    when it has none) and their position-independent variance parts
+    (:meth:`.weighting.ErrorModel.cn0_var_m2`), once per epoch."""
+    st = obs.__dict__.get("_cn0_parts")
+    if st is None:
+        c1 = obs.cn0_dbhz[:, 0]
+        c2 = np.where(np.isfinite(obs.cn0_dbhz[:, 1]), obs.cn0_dbhz[:, 1], obs.cn0_dbhz[:, 0])
+        st = (c1, c2, em.cn0_var_m2(c1), em.cn0_var_m2(c2))
+        object.__setattr__(obs, "_cn0_parts", st)
+    return st
+
+
 def _rot_sagnac(obs, r_s, r_a):
-    we = np.array([constants(e.system)[1] for e in obs.ephemerides])
+    we = _static(obs)[0]
     tau = np.linalg.norm(r_s - r_a, axis=1) / C_MPS
     c, s = np.cos(we * tau), np.sin(we * tau)
     R = np.zeros((len(tau), 3, 3))
@@ -285,15 +313,15 @@ def corrected_at(obs: SatelliteObservations, r_rx_e_m, clock_bias_m: float, mode
     rr = np.einsum("kij,kj->ki", R, r_s)
     near_earth = np.linalg.norm(r_a) > 6.0e6
     if near_earth:
-        el, az = elevation_azimuth(r_a, rr)
         lat, lon, alt = earth.ecef_to_geodetic(r_a)
+        el, az = elevation_azimuth(r_a, rr, (lat, lon, alt))
     else:                                           # first iterations from the Earth's centre: no geometry yet
         el, az = np.full(n, np.pi / 2), np.zeros(n)
         lat = lon = alt = 0.0
     iono = np.zeros(n)
     single = ~obs.dual
     if near_earth and single.any():
-        systems = np.array([c.system for c in obs.choices])
+        systems = _static(obs)[1]
         for sysc in set(systems[single]):
             ab = model.klobuchar_for(sysc)
             if ab is None:
@@ -306,9 +334,10 @@ def corrected_at(obs: SatelliteObservations, r_rx_e_m, clock_bias_m: float, mode
         var = obs.sig_var_m2.copy()
     else:
         em = model.errors
-        v1 = em.receiver_var_m2(el, obs.cn0_dbhz[:, 0])
-        v2 = em.receiver_var_m2(el, np.where(np.isfinite(obs.cn0_dbhz[:, 1]), obs.cn0_dbhz[:, 1], obs.cn0_dbhz[:, 0]))
+        c1, c2, p1, p2 = _cn0_parts(obs, em)
+        v1 = em.receiver_var_m2(el, c1, p1)
+        v2 = em.receiver_var_m2(el, c2, p2)
         rx = obs.coef[:, 0] ** 2 * v1 + obs.coef[:, 1] ** 2 * v2
-        acc = np.array([e.accuracy_m for e in obs.ephemerides])
+        acc = _static(obs)[2]
         var = rx + em.model_var_m2(el, acc, iono, obs.dual)
     return Corrected(r_s, v_s, R, pr, var, el, az, iono, tropo, clk, drift)

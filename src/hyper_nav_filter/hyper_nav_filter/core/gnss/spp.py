@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import earth
 from .raim import global_statistic, standardized_residuals, threshold
-from .receiver_model import ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges
+from .receiver_model import ReceiverModel, _static, corrected_at, satellite_observations, states_from_pseudoranges
 
 from .constants import C_MPS
 
@@ -116,12 +116,14 @@ def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool)
     it = 0
     x = None
     warm = use_mask and np.linalg.norm(r) > 6.0e6          # started from a position near the antenna
+    sys_all = _static(obs)[1]
     for it in range(1, cfg.max_iterations + 1):
         cor = corrected_at(obs, r, b, model, states)
         if use_mask and np.linalg.norm(r) > 6.0e6:
             ok = cor.el_rad >= model.elevation_mask_rad
         idx = np.flatnonzero(ok)
-        systems = [s for s in systems_all if any(obs.choices[k].system == s for k in idx)]
+        sys_of = sys_all[idx]
+        systems = [s for s in systems_all if (sys_of == s).any()]
         m = 3 + len(systems)
         if len(idx) < m:
             return None
@@ -131,11 +133,10 @@ def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool)
         u = d / rho[:, None]
         H = np.zeros((len(idx), m))
         H[:, :3] = u
-        sys_of = [obs.choices[k].system for k in idx]
         for j, s in enumerate(systems):
-            H[:, 3 + j] = [1.0 if q == s else 0.0 for q in sys_of]
-            if j > 0:
-                H[:, 3] = 1.0                      # reference clock on every row, ISB on its system's rows
+            H[:, 3 + j] = sys_of == s
+        if len(systems) > 1:
+            H[:, 3] = 1.0                          # reference clock on every row, ISB on its system's rows
         if x is None or len(x) != m:
             x = np.concatenate([r, [b], np.zeros(m - 4)])
         pred = rho + H[:, 3:] @ x[3:]
