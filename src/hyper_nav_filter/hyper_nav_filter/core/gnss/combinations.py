@@ -83,15 +83,19 @@ def choose_signals(raw, plan: dict, counters=None) -> list[Choice]:
     legacy signal."""
     from .signals import signal_code
     by_sat: dict = {}
-    for k, (s, p, ok) in enumerate(zip(raw.system, raw.prn, raw.locked)):
+    finite = np.isfinite(np.asarray(raw.pseudorange_m, float)).tolist()    # once an epoch, not per channel
+    prns = np.asarray(raw.prn).tolist()
+    sig = raw.signal
+    for k, (s, ok) in enumerate(zip(raw.system, raw.locked)):
         if s not in plan:
             if counters is not None:
                 counters["signals_system_not_in_plan"] += 1
             continue
-        if not ok or not np.isfinite(raw.pseudorange_m[k]):
+        if not ok or not finite[k]:
             continue
-        code = signal_code(s, raw.signal_of(k)) if s in ("G", "E", "C", "J") else raw.signal_of(k)
-        by_sat.setdefault((s, int(p)), {}).setdefault(code, k)
+        c = sig[k] if sig else ""
+        code = (c or signal_code(s, c)) if s in ("G", "E", "C", "J") else c
+        by_sat.setdefault((s, int(prns[k])), {}).setdefault(code, k)
     out = []
     for (s, p), codes in by_sat.items():
         for ch in plan[s]:

@@ -161,6 +161,16 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
     choices = choose_signals(raw, model.plan, counters)
     keep, ephs, pr, dual, scale, svar, cn0, coef = [], [], [], [], [], [], [], []
     has_cn0 = len(raw.cn0_dbhz) == len(raw.system) and len(raw.system) > 0
+    # group delays and pair coefficients of a record and its codes, kept with the store (a record's numbers
+    # never change; the record itself is held in the entry, so a reused id() is recognised)
+    signal_cache = getattr(store, "_signal_cache", None)
+    if signal_cache is None and hasattr(store, "records_of"):
+        try:
+            store._signal_cache = signal_cache = {}
+        except AttributeError:
+            signal_cache = None
+    if signal_cache is not None and len(signal_cache) > 50000:
+        signal_cache.clear()
     for ch in choices:
         sid = f"{ch.system}{ch.prn:02d}"
         if ch.system not in MODELLED_SYSTEMS:
@@ -173,16 +183,28 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
         eph = _select(store, ch.system, ch.prn, raw.t_rx_gpst_s, clock, counters, raw.t_s)
         if eph is None:
             continue
-        try:
-            d = [group_delay_s(eph, c) for c in ch.codes]
-        except NoGroupDelay:
-            counters[f"no_group_delay_{ch.system}{ch.codes[0]}"] += 1
-            continue
+        key = (id(eph), ch.codes)
+        got = signal_cache.get(key) if signal_cache is not None else None
+        if got is None or got[0] is not eph:
+            try:
+                d = [group_delay_s(eph, c) for c in ch.codes]
+            except NoGroupDelay:
+                counters[f"no_group_delay_{ch.system}{ch.codes[0]}"] += 1
+                continue
+            if ch.dual:
+                a1, a2 = iono_free_coefficients(ch.system, *ch.codes)
+                sc = 0.0
+            else:
+                a1 = a2 = None
+                sc = (F_L1_HZ / frequency_hz(ch.system, ch.codes[0])) ** 2
+            got = (eph, d, a1, a2, sc)
+            if signal_cache is not None:
+                signal_cache[key] = got
+        _, d, a1, a2, sc = got
         p = [raw.pseudorange_m[k] - C_MPS * dk for k, dk in zip(ch.channels, d)]
         s2 = [raw.pseudorange_sigma_m[k] ** 2 for k in ch.channels]
         c0 = [raw.cn0_dbhz[k] if has_cn0 else np.nan for k in ch.channels]
         if ch.dual:
-            a1, a2 = iono_free_coefficients(ch.system, *ch.codes)
             pr.append(a1 * p[0] - a2 * p[1])
             svar.append(a1 * a1 * s2[0] + a2 * a2 * s2[1])
             scale.append(0.0)
@@ -191,7 +213,7 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
         else:
             pr.append(p[0])
             svar.append(s2[0])
-            scale.append((F_L1_HZ / frequency_hz(ch.system, ch.codes[0])) ** 2)
+            scale.append(sc)
             cn0.append((c0[0], np.nan))
             coef.append((1.0, 0.0))
         dual.append(ch.dual)

@@ -217,7 +217,8 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     active = np.ones(len(obs), bool)
     excluded = []
     x, cor, H, v, var, idx, it, systems = res
-    below = [obs.sat_ids[k] for k in range(len(obs)) if k not in set(idx)]
+    in_fit, sat_ids = set(idx.tolist()), obs.sat_ids
+    below = [sat_ids[k] for k in range(len(obs)) if k not in in_fit]
     while True:
         dof = len(idx) - H.shape[1]
         T = global_statistic(v, var)
