@@ -33,6 +33,7 @@ from .raim import global_statistic, standardized_residuals, threshold
 from .receiver_model import ReceiverModel, _static, corrected_at, satellite_observations, states_from_pseudoranges
 
 from .constants import C_MPS
+from .propagation import hopfield_delay_m, klobuchar_delay_m
 
 SYSTEM_ORDER = ("G", "E", "C", "J")
 BATCH_EPOCHS = 600              # epochs whose satellite orbits are evaluated together (:func:`states_batch`)
@@ -270,22 +271,278 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     return sol
 
 
-def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None) -> list[SppSolution]:
+def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None,
+          batched: bool = True) -> list[SppSolution]:
     """SPP of every epoch, each started from the previous valid solution (the
     first from ``x0`` = [x, y, z, b], e.g. a RINEX header's approximate
-    position; None = the Earth's centre)."""
+    position; None = the Earth's centre).
+
+    ``batched``: the epochs of a block are solved together
+    (:func:`_batch_solve`, the same iterations on arrays of every epoch)
+    where that gives what :func:`solve_epoch` gives; an epoch the batch does
+    not settle (too few satellites, a RAIM alarm, no degree of freedom, no
+    start yet, or the epoch after such one) is solved by :func:`solve_epoch`
+    from the previous solution, as before."""
     counters = counters if counters is not None else Counter()
     out = []
     for a in range(0, len(epochs), BATCH_EPOCHS):
         block = epochs[a:a + BATCH_EPOCHS]
         obs_list = [satellite_observations(raw, store, cfg.model, counters, exclude=cfg.exclude) for raw in block]
         states = states_batch(obs_list)
-        for raw, obs, st in zip(block, obs_list, states):
-            s = solve_epoch(raw, store, cfg, x0, counters, obs=obs, states=st if len(obs) >= 4 else None)
+        k0 = 0
+        while batched and k0 < len(block) and (x0 is None or not np.all(np.isfinite(x0))):
+            s = solve_epoch(block[k0], store, cfg, x0, counters, obs=obs_list[k0],      # no start yet: one by one
+                            states=states[k0] if len(obs_list[k0]) >= 4 else None)
             out.append(s)
             if s.valid:
                 x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
+            k0 += 1
+        block, obs_list, states = block[k0:], obs_list[k0:], states[k0:]
+        start = None if x0 is None or not np.all(np.isfinite(x0)) else np.asarray(x0, float)[:4]
+        batch = _batch_solve(block, obs_list, states, cfg, start) if batched and start is not None and block else None
+        prev_from_batch = True
+        for k, (raw, obs, st) in enumerate(zip(block, obs_list, states)):
+            s = batch[k] if batch is not None and prev_from_batch else None
+            if s is None:
+                s = solve_epoch(raw, store, cfg, x0, counters, obs=obs, states=st if len(obs) >= 4 else None)
+                prev_from_batch = False
+            else:
+                counters[f"epochs_{s.status}"] += 1
+                prev_from_batch = True
+            out.append(s)
+            if s.valid:
+                x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
+            if not s.valid and s.status != "too_few_satellites":
+                prev_from_batch = False
     return out
+
+
+class _Block:
+    """The satellites of a block of epochs as (epochs x satellites) arrays,
+    padded rows flagged off in ``row``."""
+
+    def __init__(self, obs_list, states, cfg: SppConfig):
+        E = len(obs_list)
+        S = max([len(o) for o in obs_list] + [1])
+        self.E, self.S = E, S
+        self.row = np.zeros((E, S), bool)
+        self.r_s = np.tile(np.array([2.6e7, 0.0, 0.0]), (E, S, 1))
+        self.clk = np.zeros((E, S))
+        self.we = np.zeros((E, S))
+        self.pr0 = np.zeros((E, S))
+        self.scale = np.zeros((E, S))
+        self.dual = np.ones((E, S), bool)
+        self.sys = np.full((E, S), -1)
+        self.acc = np.ones((E, S))
+        self.coef = np.zeros((E, S, 2))
+        self.c = [np.full((E, S), 45.0), np.full((E, S), 45.0)]
+        self.parts = [[np.ones((E, S), bool), np.ones((E, S), bool), np.ones((E, S))] for _ in range(2)]
+        self.t_rx = np.zeros(E)
+        self.ok_epoch = np.zeros(E, bool)
+        for e, (o, st) in enumerate(zip(obs_list, states)):
+            n = len(o)
+            self.t_rx[e] = o.t_rx_gpst_s
+            if n < 4:
+                continue
+            we, systems, acc = _static(o)
+            self.row[e, :n] = True
+            self.r_s[e, :n] = st.r_sat_e_m
+            self.clk[e, :n] = st.clock_s
+            self.we[e, :n] = we
+            self.pr0[e, :n] = o.pr_m
+            self.scale[e, :n] = o.iono_scale
+            self.dual[e, :n] = o.dual
+            self.sys[e, :n] = [SYSTEM_ORDER.index(q) for q in systems]
+            self.acc[e, :n] = acc
+            self.coef[e, :n] = o.coef
+            if cfg.model.errors is not None:
+                from .receiver_model import _cn0_parts
+                c1, c2, p1, p2 = _cn0_parts(o, cfg.model.errors)
+                if not (p1[1].all() and p2[1].all()):
+                    continue                     # a finite C/N0 <= 0: the per-epoch path (its default sigma)
+                for j, (c, pp) in enumerate(((c1, p1), (c2, p2))):
+                    self.c[j][e, :n] = c
+                    for q in range(3):
+                        self.parts[j][q][e, :n] = pp[q]
+            self.ok_epoch[e] = True
+
+    def evaluate(self, r, b, model):
+        """:func:`.receiver_model.corrected_at` of every epoch at once (receiver
+        near the Earth's surface): (rotated satellite positions, corrected
+        pseudoranges, variances, elevations, azimuths, lat, lon)."""
+        tau = np.sqrt(np.sum((self.r_s - r[:, None, :]) ** 2, axis=2)) / C_MPS
+        c, s = np.cos(self.we * tau), np.sin(self.we * tau)
+        x, y, z = self.r_s[..., 0], self.r_s[..., 1], self.r_s[..., 2]
+        rr = np.stack([c * x + s * y, -s * x + c * y, z], axis=2)
+        lat, lon, alt = earth.ecef_to_geodetic(r)
+        sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+        d = rr - r[:, None, :]
+        e_ = -so[:, None] * d[..., 0] + co[:, None] * d[..., 1]
+        n_ = (-sl * co)[:, None] * d[..., 0] + (-sl * so)[:, None] * d[..., 1] + cl[:, None] * d[..., 2]
+        u_ = (cl * co)[:, None] * d[..., 0] + (cl * so)[:, None] * d[..., 1] + sl[:, None] * d[..., 2]
+        el = np.arctan2(u_, np.hypot(e_, n_))
+        az = np.mod(np.arctan2(e_, n_), 2 * np.pi)
+        iono = np.zeros_like(el)
+        single = ~self.dual & self.row
+        if single.any():
+            t_rx = (self.t_rx - b / C_MPS)[:, None]
+            for j, sysc in enumerate(SYSTEM_ORDER):
+                k = single & (self.sys == j)
+                ab = model.klobuchar_for(sysc) if k.any() else None
+                if ab is None:
+                    continue
+                kb = klobuchar_delay_m(ab[0], ab[1], lat[:, None], lon[:, None], np.maximum(el, 0.0), az, t_rx)
+                iono = np.where(k, kb * self.scale, iono)
+        tropo = hopfield_delay_m(np.maximum(el, 0.0), alt[:, None])[0] if model.troposphere else np.zeros_like(el)
+        pr = self.pr0 + C_MPS * self.clk - iono - tropo
+        em = model.errors
+        v1 = em.receiver_var_m2(el, self.c[0], self.parts[0])
+        v2 = em.receiver_var_m2(el, self.c[1], self.parts[1])
+        rx = self.coef[..., 0] ** 2 * v1 + self.coef[..., 1] ** 2 * v2
+        var = rx + em.model_var_m2(el, self.acc, iono, self.dual)
+        return rr, pr, np.where(self.row, var, 1.0), el, az
+
+
+def _batch_solve(block, obs_list, states, cfg: SppConfig, start) -> list:
+    """:func:`solve_epoch` of every epoch of a block on arrays, for the
+    epochs where no satellite is excluded: twice, first every epoch from
+    ``start``, then each from the previous epoch's first-pass solution (the
+    start :func:`solve` gives it, to the last few digits), with the same
+    Gauss-Newton steps, elevation mask, stop rule and residual test. Returns
+    per epoch an SppSolution, or None where :func:`solve_epoch` must decide
+    (fewer than 4 satellites, too few above the mask, a RAIM alarm, no
+    degree of freedom, C/N0 <= 0, receiver-sigma weighting)."""
+    if cfg.model.errors is None:
+        return None
+    from .receiver_model import Corrected
+    blk = _Block(obs_list, states, cfg)
+    E = blk.E
+    x_first = _batch_gauss_newton(blk, cfg, np.tile(start, (E, 1)), blk.ok_epoch.copy())
+    if x_first is None:
+        return None
+    xs = x_first[0]
+    good = x_first[-1]
+    starts = np.empty((E, 4))
+    last = np.asarray(start, float)
+    for e in range(E):                          # each epoch from the previous first-pass solution
+        starts[e] = last
+        if good[e]:
+            last = xs[e, :4]
+    res = _batch_gauss_newton(blk, cfg, starts, blk.ok_epoch.copy())
+    if res is None:
+        return None
+    x, m, ok, H, it, pr, var, el, az, rr, slot, sysp, good = res
+    out = [None] * E
+    for e in np.flatnonzero(good):
+        o, raw = obs_list[e], block[e]
+        n = len(o)
+        idx = np.flatnonzero(ok[e, :n])
+        me = int(m[e])
+        He = H[e, idx, :me]
+        xe = x[e, :me]
+        r = xe[:3]
+        d = r - rr[e, :n]
+        rho_all = np.linalg.norm(d, axis=1)
+        ve = pr[e, idx] - (rho_all[idx] + He[:, 3:] @ xe[3:])
+        vare = var[e, idx]
+        dof = len(idx) - me
+        if dof < 1:
+            continue
+        T = global_statistic(ve, vare)
+        thr = threshold(dof, cfg.p_fa)
+        if not T <= thr:
+            continue
+        systems = [SYSTEM_ORDER[j] for j in range(len(SYSTEM_ORDER)) if sysp[e, j]]
+        lat, lon, _ = earth.ecef_to_geodetic(r)
+        W = 1.0 / vare
+        cov = np.linalg.inv(He.T @ (He * W[:, None]))
+        sys_e = blk.sys[e, :n]
+        clk = xe[3] + np.where(slot[e, np.maximum(sys_e, 0)] > 0, xe[3 + np.maximum(slot[e, sys_e], 0)], 0.0) * \
+            sysp[e, sys_e]
+        used = np.zeros(n, bool)
+        used[idx] = True
+        in_fit, sat_ids = set(idx.tolist()), o.sat_ids
+        full = Corrected(states[e].r_sat_e_m, states[e].v_sat_e_mps, None, pr[e, :n], var[e, :n], el[e, :n],
+                         az[e, :n], None, None, states[e].clock_s, states[e].clock_drift_sps)
+        out[e] = SppSolution(
+            float(raw.t_s), float(raw.t_rx_gpst_s), "ok", r.copy(), cov[:3, :3], float(xe[3]), systems[0],
+            {q: float(xe[3 + j]) for j, q in enumerate(systems) if j > 0}, _dops(He, lat, lon), sat_ids,
+            full.pr_m - rho_all - clk, np.sqrt(full.var_m2), full.el_rad, full.az_rad, o.cn0_dbhz[:, 0], o.dual,
+            used, [], [sat_ids[k] for k in range(n) if k not in in_fit], float(T), float(thr), int(dof), int(it[e]))
+    return out
+
+
+def _batch_gauss_newton(blk: _Block, cfg: SppConfig, x0, active):
+    """The iterations of :func:`_least_squares` (``use_mask``, a start near the
+    antenna) for every active epoch at once. Returns (x, m, ok, H, iterations,
+    pr, var, el, az, rotated satellites, system slots, systems present, good)
+    at the end, good False where an epoch had too few satellites or a
+    singular system; or None when no epoch is active."""
+    model = cfg.model
+    E, S = blk.E, blk.S
+    active = active & (np.linalg.norm(x0[:, :3], axis=1) > 6.0e6)
+    if not active.any():
+        return None
+    NS = len(SYSTEM_ORDER)
+    x = np.zeros((E, 3 + NS))
+    x[:, :4] = x0[:, :4]
+    m_prev = np.full(E, -1)
+    done = ~active
+    good = active.copy()
+    it_of = np.zeros(E, int)
+    H = np.zeros((E, S, 3 + NS))
+    ok = np.zeros((E, S), bool)
+    m = np.full(E, 4)
+    slot = np.zeros((E, NS), int)
+    sysp = np.zeros((E, NS), bool)
+    rows = np.arange(E)
+    for it in range(1, cfg.max_iterations + 1):
+        run = ~done
+        if not run.any():
+            break
+        rr, pr, var, el, az = blk.evaluate(x[:, :3], x[:, 3], model)
+        ok_new = (el >= model.elevation_mask_rad) & blk.row
+        sysp_new = np.stack([(ok_new & (blk.sys == j)).any(axis=1) for j in range(NS)], axis=1)
+        m_new = 3 + sysp_new.sum(axis=1)
+        few = run & (ok_new.sum(axis=1) < m_new)
+        good &= ~few
+        done |= few
+        run &= ~few
+        ok[run], sysp[run], m[run] = ok_new[run], sysp_new[run], m_new[run]
+        slot[run] = np.cumsum(sysp_new[run], axis=1) - 1
+        reset = run & (m != m_prev)
+        x[reset, 4:] = 0.0
+        m_prev[run] = m[run]
+        d = x[:, None, :3] - rr
+        rho = np.sqrt(np.sum(d * d, axis=2))
+        Hn = np.zeros((E, S, 3 + NS))
+        Hn[..., :3] = d / rho[..., None]
+        sl_of = np.where(blk.sys >= 0, slot[rows[:, None], np.maximum(blk.sys, 0)], -1)
+        for j in range(NS):
+            Hn[..., 3 + j] = (sl_of == j) & sysp[rows[:, None], np.maximum(blk.sys, 0)]
+        multi = sysp.sum(axis=1) > 1
+        Hn[multi, :, 3] = 1.0
+        Hn *= ok[..., None]
+        H[run] = Hn[run]
+        pred = rho + np.einsum("esj,ej->es", H[..., 3:], x[:, 3:])
+        v = np.where(ok, pr - pred, 0.0)
+        w = np.where(ok, 1.0 / var, 0.0)
+        N = np.einsum("esi,es,esj->eij", H, w, H)
+        unused = np.arange(3 + NS)[None, :] >= m[:, None]
+        N[:, np.arange(3 + NS), np.arange(3 + NS)] += unused
+        rhs = np.einsum("esi,es->ei", H, w * v)
+        try:
+            dx = np.linalg.solve(N[run], rhs[run][..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            return None
+        x[run] += dx
+        it_of[run] = it
+        step = np.linalg.norm(dx[:, :3], axis=1)
+        stop = np.zeros(E, bool)
+        stop[run] = (it > 1) & ((step < cfg.tol_m) | (step < cfg.warm_tol_m))
+        done |= stop
+    rr, pr, var, el, az = blk.evaluate(x[:, :3], x[:, 3], model)
+    return x, m, ok, H, it_of, pr, var, el, az, rr, slot, sysp, good
 
 
 @dataclass
