@@ -214,3 +214,17 @@ def test_batched_solve_equals_the_epoch_by_epoch_one(tlse, plan, monkeypatch):
         assert max(abs(s.clock_bias_m - t.clock_bias_m) for s, t in zip(a, b)) < 1e-6
         assert max(np.max(np.abs(s.residual_m - t.residual_m)) for s, t in zip(a, b)) < 1e-6
         assert max(np.max(np.abs(s.cov_ecef_m2 - t.cov_ecef_m2)) for s, t in zip(a, b)) < 1e-9
+
+
+def test_raim_threshold_table_is_scipys_quantile():
+    """The chi-square thresholds of the default P_fa kept as a table (no
+    scipy import at start-up) are the doubles scipy gives, for every dof of
+    the table; other P_fa and dof are still scipy's."""
+    from scipy.stats import chi2
+
+    from hyper_nav_filter.core.gnss import raim
+    raim.threshold.cache_clear()
+    for dof in range(1, 201):
+        assert raim.threshold(dof, 1e-3) == float(chi2.isf(1e-3, dof))
+    assert raim.threshold(201, 1e-3) == float(chi2.isf(1e-3, 201))
+    assert raim.threshold(7, 1e-5) == float(chi2.isf(1e-5, 7))
