@@ -208,8 +208,14 @@ def _record(lines, a, b, sysc, path, out) -> None:
         y, mo, dd, hh, mi, ss = (int(h[4:8]), int(h[9:11]), int(h[12:14]), int(h[15:17]),
                                  int(h[18:20]), int(h[21:23]))
         toc_s = calendar_to_system_s(sysc, y, mo, dd, hh, mi, ss)
-        clk = _fields(h.ljust(80), 23, 3)
-        orb = [_fields(lines[a + k].ljust(80), 4) for k in range(1, 8)]
+        # the 3 clock and 28 orbit fields (19 characters each) as one text: one D -> E pass, float() per field
+        # (it takes the blanks around a number); the same values as _fields, a third of its time
+        txt = (h.ljust(80)[23:80] + "".join(lines[a + k].ljust(80)[4:80] for k in range(1, 8))) \
+            .replace("D", "E").replace("d", "e")
+        v = [float(x) if not x.isspace() else 0.0 for x in
+             (txt[19 * j:19 * (j + 1)] for j in range(31))]
+        clk = v[:3]
+        orb = [v[3 + 4 * k:7 + 4 * k] for k in range(7)]
         out.append(_build(sysc, prn, toc_s, clk, orb))
         out.counts[sysc] += 1
     except ValueError as exc:
