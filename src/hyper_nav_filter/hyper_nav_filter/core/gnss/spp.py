@@ -335,8 +335,7 @@ class _Block:
         self.sys = np.full((E, S), -1)
         self.acc = np.ones((E, S))
         self.coef = np.zeros((E, S, 2))
-        self.c = [np.full((E, S), 45.0), np.full((E, S), 45.0)]
-        self.parts = [[np.ones((E, S), bool), np.ones((E, S), bool), np.ones((E, S))] for _ in range(2)]
+        cn0 = np.full((E, S, 2), 45.0)
         self.t_rx = np.zeros(E)
         self.ok_epoch = np.zeros(E, bool)
         for e, (o, st) in enumerate(zip(obs_list, states)):
@@ -355,16 +354,14 @@ class _Block:
             self.sys[e, :n] = [SYSTEM_ORDER.index(q) for q in systems]
             self.acc[e, :n] = acc
             self.coef[e, :n] = o.coef
-            if cfg.model.errors is not None:
-                from .receiver_model import _cn0_parts
-                c1, c2, p1, p2 = _cn0_parts(o, cfg.model.errors)
-                if not (p1[1].all() and p2[1].all()):
-                    continue                     # a finite C/N0 <= 0: the per-epoch path (its default sigma)
-                for j, (c, pp) in enumerate(((c1, p1), (c2, p2))):
-                    self.c[j][e, :n] = c
-                    for q in range(3):
-                        self.parts[j][q][e, :n] = pp[q]
+            cn0[e, :n] = o.cn0_dbhz
             self.ok_epoch[e] = True
+        # the C/N0 parts of the weights (receiver_model._cn0_parts, element by element)
+        self.c = [cn0[..., 0], np.where(np.isfinite(cn0[..., 1]), cn0[..., 1], cn0[..., 0])]
+        if cfg.model.errors is not None:
+            self.parts = [cfg.model.errors.cn0_var_m2(c) for c in self.c]
+            for finite, valid, _ in self.parts:          # a finite C/N0 <= 0: the per-epoch path (its default sigma)
+                self.ok_epoch &= ~(finite & ~valid).any(axis=1)
 
     def evaluate(self, r, b, model):
         """:func:`.receiver_model.corrected_at` of every epoch at once (receiver
@@ -414,7 +411,6 @@ def _batch_solve(block, obs_list, states, cfg: SppConfig, start) -> list:
     degree of freedom, C/N0 <= 0, receiver-sigma weighting)."""
     if cfg.model.errors is None:
         return None
-    from .receiver_model import Corrected
     blk = _Block(obs_list, states, cfg)
     E = blk.E
     x_first = _batch_gauss_newton(blk, cfg, np.tile(start, (E, 1)), blk.ok_epoch.copy())
@@ -432,43 +428,59 @@ def _batch_solve(block, obs_list, states, cfg: SppConfig, start) -> list:
     if res is None:
         return None
     x, m, ok, H, it, pr, var, el, az, rr, slot, sysp, good = res
+    # everything :func:`solve_epoch` reports, for every epoch at once (unused clock columns: identity)
+    P = H.shape[2]
+    unused = np.arange(P)[None, :] >= m[:, None]
+    eye = np.zeros((E, P, P))
+    eye[:, np.arange(P), np.arange(P)] = unused
+    r = x[:, :3]
+    rho_all = np.sqrt(np.sum((r[:, None, :] - rr) ** 2, axis=2))
+    v_all = pr - (rho_all + np.einsum("esj,ej->es", H[..., 3:], x[:, 3:]))
+    W = np.where(ok, 1.0 / var, 0.0)
+    T_all = np.sum(np.where(ok, v_all * v_all * W, 0.0), axis=1)
+    dof_all = ok.sum(axis=1) - m
+    try:
+        cov = np.linalg.inv(np.einsum("esi,es,esj->eij", H, W, H) + eye)
+        Q = np.linalg.inv(np.einsum("esi,esj->eij", H, H) + eye)
+    except np.linalg.LinAlgError:
+        return None
+    lat, lon, _ = earth.ecef_to_geodetic(r)
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    Cne = np.stack([np.stack([-so, -sl * co, cl * co], 1), np.stack([co, -sl * so, cl * so], 1),
+                    np.stack([np.zeros(E), cl, sl], 1)], 1)                    # ENU -> ECEF per epoch
+    Qp = np.einsum("eji,ejk,ekl->eil", Cne, Q[:, :3, :3], Cne)
+    qd = np.diagonal(Q, axis1=1, axis2=2)
+    gdop = np.sqrt(np.sum(np.where(unused, 0.0, qd), axis=1))
+    pdop = np.sqrt(qd[:, 0] + qd[:, 1] + qd[:, 2])
+    hdop, vdop, tdop = np.sqrt(Qp[:, 0, 0] + Qp[:, 1, 1]), np.sqrt(Qp[:, 2, 2]), np.sqrt(qd[:, 3])
+    sys_safe = np.maximum(blk.sys, 0)
+    rows = np.arange(E)[:, None]
+    present = sysp[rows, sys_safe]
+    isb_slot = slot[rows, sys_safe]
+    clk_all = x[:, 3:4] + np.where(present & (isb_slot > 0), np.take_along_axis(x, 3 + np.maximum(isb_slot, 0), 1),
+                                   0.0)
     out = [None] * E
-    for e in np.flatnonzero(good):
-        o, raw = obs_list[e], block[e]
-        n = len(o)
-        idx = np.flatnonzero(ok[e, :n])
-        me = int(m[e])
-        He = H[e, idx, :me]
-        xe = x[e, :me]
-        r = xe[:3]
-        d = r - rr[e, :n]
-        rho_all = np.linalg.norm(d, axis=1)
-        ve = pr[e, idx] - (rho_all[idx] + He[:, 3:] @ xe[3:])
-        vare = var[e, idx]
-        dof = len(idx) - me
-        if dof < 1:
-            continue
-        T = global_statistic(ve, vare)
+    for e in np.flatnonzero(good & (dof_all >= 1)):
+        dof = int(dof_all[e])
+        T = float(T_all[e])
         thr = threshold(dof, cfg.p_fa)
         if not T <= thr:
             continue
+        o, raw = obs_list[e], block[e]
+        n = len(o)
+        me = int(m[e])
+        xe = x[e, :me]
         systems = [SYSTEM_ORDER[j] for j in range(len(SYSTEM_ORDER)) if sysp[e, j]]
-        lat, lon, _ = earth.ecef_to_geodetic(r)
-        W = 1.0 / vare
-        cov = np.linalg.inv(He.T @ (He * W[:, None]))
-        sys_e = blk.sys[e, :n]
-        clk = xe[3] + np.where(slot[e, np.maximum(sys_e, 0)] > 0, xe[3 + np.maximum(slot[e, sys_e], 0)], 0.0) * \
-            sysp[e, sys_e]
-        used = np.zeros(n, bool)
-        used[idx] = True
-        in_fit, sat_ids = set(idx.tolist()), o.sat_ids
-        full = Corrected(states[e].r_sat_e_m, states[e].v_sat_e_mps, None, pr[e, :n], var[e, :n], el[e, :n],
-                         az[e, :n], None, None, states[e].clock_s, states[e].clock_drift_sps)
+        used = ok[e, :n].copy()
+        sat_ids = o.sat_ids
         out[e] = SppSolution(
-            float(raw.t_s), float(raw.t_rx_gpst_s), "ok", r.copy(), cov[:3, :3], float(xe[3]), systems[0],
-            {q: float(xe[3 + j]) for j, q in enumerate(systems) if j > 0}, _dops(He, lat, lon), sat_ids,
-            full.pr_m - rho_all - clk, np.sqrt(full.var_m2), full.el_rad, full.az_rad, o.cn0_dbhz[:, 0], o.dual,
-            used, [], [sat_ids[k] for k in range(n) if k not in in_fit], float(T), float(thr), int(dof), int(it[e]))
+            float(raw.t_s), float(raw.t_rx_gpst_s), "ok", xe[:3].copy(), cov[e, :3, :3].copy(), float(xe[3]),
+            systems[0], {q: float(xe[3 + j]) for j, q in enumerate(systems) if j > 0},
+            {"gdop": float(gdop[e]), "pdop": float(pdop[e]), "hdop": float(hdop[e]), "vdop": float(vdop[e]),
+             "tdop": float(tdop[e])}, sat_ids,
+            pr[e, :n] - rho_all[e, :n] - clk_all[e, :n], np.sqrt(var[e, :n]), el[e, :n], az[e, :n],
+            o.cn0_dbhz[:, 0], o.dual, used, [], [sat_ids[k] for k in np.flatnonzero(~used)], T, float(thr), dof,
+            int(it[e]))
     return out
 
 
