@@ -168,25 +168,42 @@ def states_batch(obs_list) -> list:
     by element: equal to the per-epoch evaluation, tested), then split back
     per epoch. Per-epoch evaluation was 8 small-array calls an epoch, 23 % of
     the solve time in the profile."""
-    from .ephemeris import EphemerisStack, satellite_position_ecef, system_time_s
+    from .ephemeris import satellite_position_ecef, system_time_s
     from .receiver_model import SatelliteStates
+    sizes = [len(o) for o in obs_list]
+    off = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    flat_ephs = [e for o in obs_list for e in o.ephemerides]
+    n = len(flat_ephs)
+    flat_pr = np.concatenate([o.pr_m for o in obs_list]) if n else np.zeros(0)
+    flat_ep = np.repeat(np.arange(len(obs_list)), sizes)
     rows: dict = {}
-    for k, obs in enumerate(obs_list):
-        for j, e in enumerate(obs.ephemerides):
-            rows.setdefault((e.system, e.is_geo), []).append((k, j))
-    out_r = [np.empty((len(o), 3)) for o in obs_list]
-    out_v = [np.empty((len(o), 3)) for o in obs_list]
-    out_c = [np.empty(len(o)) for o in obs_list]
-    out_d = [np.empty(len(o)) for o in obs_list]
-    for (system, _), kj in rows.items():
-        stack = EphemerisStack([obs_list[k].ephemerides[j] for k, j in kj])
-        t_sys = np.array([float(system_time_s(system, obs_list[k].t_rx_gpst_s)) for k, _ in kj])
-        tau = np.array([obs_list[k].pr_m[j] for k, j in kj]) / C_MPS
+    for i, e in enumerate(flat_ephs):
+        rows.setdefault((e.system, e.is_geo), []).append(i)
+    R, V, C, D = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n)
+    for (system, _), ii in rows.items():
+        ii = np.asarray(ii, int)
+        stack = _stack_rows([flat_ephs[i] for i in ii])
+        t_ep = np.array([float(system_time_s(system, o.t_rx_gpst_s)) for o in obs_list])
+        t_sys = t_ep[flat_ep[ii]]
+        tau = flat_pr[ii] / C_MPS
         c0 = satellite_position_ecef(stack, t_sys, -tau)[2]
-        r, v, c, d = satellite_position_ecef(stack, t_sys, -tau - c0)
-        for i, (k, j) in enumerate(kj):
-            out_r[k][j], out_v[k][j], out_c[k][j], out_d[k][j] = r[i], v[i], c[i], d[i]
-    return [SatelliteStates(a, b, c, d) for a, b, c, d in zip(out_r, out_v, out_c, out_d)]
+        R[ii], V[ii], C[ii], D[ii] = satellite_position_ecef(stack, t_sys, -tau - c0)
+    return [SatelliteStates(R[a:b], V[a:b], C[a:b], D[a:b]) for a, b in zip(off[:-1], off[1:])]
+
+
+def _stack_rows(ephs):
+    """``EphemerisStack(ephs)`` built from the distinct records only (a record
+    serves a satellite for every epoch of its validity: ~30x fewer), its
+    arrays then indexed per row: the same numbers."""
+    from .ephemeris import _STACKED_FIELDS, EphemerisStack
+    uniq: dict = {}
+    idx = np.array([uniq.setdefault(id(e), (len(uniq), e))[0] for e in ephs], int)
+    base = EphemerisStack([e for _, e in uniq.values()])
+    st = object.__new__(EphemerisStack)
+    st.system, st.is_geo = base.system, base.is_geo
+    for name in _STACKED_FIELDS + ("toe_s", "toc_s"):
+        setattr(st, name, getattr(base, name)[idx])
+    return st
 
 
 def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = None,
