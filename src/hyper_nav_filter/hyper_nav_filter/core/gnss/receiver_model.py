@@ -27,6 +27,7 @@ Two steps, so the position-independent work is done once per epoch:
 """
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field, replace
 
@@ -112,7 +113,7 @@ def _select(store, system, prn, t_gpst_s, clock, counters, received_by_s=np.inf)
     on what was asked before or on the order the records came in."""
     cache = getattr(store, "_select_cache", None)
     n_recv = len(store.records_of(system, prn, received_by_s)) if hasattr(store, "records_of") else -1
-    key = (system, int(prn), clock, float(np.floor(t_gpst_s / SELECT_BUCKET_S)), n_recv)
+    key = (system, int(prn), clock, float(math.floor(t_gpst_s / SELECT_BUCKET_S)), n_recv)
     if cache is not None and key in cache:
         eph, why = cache[key]
         if why:
@@ -152,6 +153,9 @@ def _select_now(store, system, prn, t_gpst_s, clock, counters, received_by_s=np.
     return eph
 
 
+_GAL_CLOCK: dict = {}            # galileo_clock_for of a tuple of codes
+
+
 def satellite_observations(raw, store, model: ReceiverModel, counters: Counter | None = None,
                            exclude=()) -> SatelliteObservations:
     """Step 1 of the module docstring for one RawGnssEpoch. ``store``: an
@@ -171,16 +175,25 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
             signal_cache = None
     if signal_cache is not None and len(signal_cache) > 50000:
         signal_cache.clear()
+    # the epoch's channels as Python lists: the same doubles, without a numpy scalar per access
+    pr_l = np.asarray(raw.pseudorange_m, float).tolist()
+    sg_l = np.asarray(raw.pseudorange_sigma_m, float).tolist()
+    cn_l = np.asarray(raw.cn0_dbhz, float).tolist() if has_cn0 else None
+    t_rx, t_s = raw.t_rx_gpst_s, raw.t_s
     for ch in choices:
-        sid = f"{ch.system}{ch.prn:02d}"
         if ch.system not in MODELLED_SYSTEMS:
             counters["satellites_system_not_modelled"] += 1
             continue
-        if sid in exclude:
+        if exclude and f"{ch.system}{ch.prn:02d}" in exclude:
             counters["satellites_excluded_by_user"] += 1
             continue
-        clock = galileo_clock_for(ch.codes) if ch.system == "E" else 0
-        eph = _select(store, ch.system, ch.prn, raw.t_rx_gpst_s, clock, counters, raw.t_s)
+        if ch.system == "E":
+            clock = _GAL_CLOCK.get(ch.codes)
+            if clock is None:
+                clock = _GAL_CLOCK[ch.codes] = galileo_clock_for(ch.codes)
+        else:
+            clock = 0
+        eph = _select(store, ch.system, ch.prn, t_rx, clock, counters, t_s)
         if eph is None:
             continue
         key = (id(eph), ch.codes)
@@ -201,9 +214,9 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
             if signal_cache is not None:
                 signal_cache[key] = got
         _, d, a1, a2, sc = got
-        p = [raw.pseudorange_m[k] - C_MPS * dk for k, dk in zip(ch.channels, d)]
-        s2 = [raw.pseudorange_sigma_m[k] ** 2 for k in ch.channels]
-        c0 = [raw.cn0_dbhz[k] if has_cn0 else np.nan for k in ch.channels]
+        p = [pr_l[k] - C_MPS * dk for k, dk in zip(ch.channels, d)]
+        s2 = [sg_l[k] ** 2 for k in ch.channels]
+        c0 = [cn_l[k] for k in ch.channels] if has_cn0 else [np.nan] * len(ch.channels)
         if ch.dual:
             pr.append(a1 * p[0] - a2 * p[1])
             svar.append(a1 * a1 * s2[0] + a2 * a2 * s2[1])
