@@ -21,6 +21,7 @@ for B1I/B3I.
 """
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,9 +83,32 @@ def choose_signals(raw, plan: dict, counters=None) -> list[Choice]:
     signal codes (the simulated receiver's) are read as each system's
     legacy signal."""
     from .signals import signal_code
+    finite_a = np.isfinite(np.asarray(raw.pseudorange_m, float))
+    prns_a = np.asarray(raw.prn)
+    # consecutive epochs of a file mostly have the same channels: the choice (and the counts it adds) kept
+    # per layout (systems, PRNs, codes, lock, finite code) and plan
+    key = (id(plan), tuple(raw.system), prns_a.tobytes(), prns_a.dtype.str, tuple(raw.signal),
+           np.asarray(raw.locked, bool).tobytes(), finite_a.tobytes())
+    got = _CHOICES.get(key)
+    if got is not None and got[0] is plan:
+        if counters is not None:
+            counters.update(got[2])
+        return list(got[1])
+    local = Counter()
+    out = _choose(raw, plan, local, finite_a.tolist(), prns_a.tolist(), signal_code)
+    if len(_CHOICES) > 256:
+        _CHOICES.clear()
+    _CHOICES[key] = (plan, tuple(out), local)
+    if counters is not None:
+        counters.update(local)
+    return out
+
+
+_CHOICES: dict = {}
+
+
+def _choose(raw, plan, counters, finite, prns, signal_code) -> list[Choice]:
     by_sat: dict = {}
-    finite = np.isfinite(np.asarray(raw.pseudorange_m, float)).tolist()    # once an epoch, not per channel
-    prns = np.asarray(raw.prn).tolist()
     sig = raw.signal
     for k, (s, ok) in enumerate(zip(raw.system, raw.locked)):
         if s not in plan:
