@@ -208,8 +208,10 @@ def _numbers(lines, firsts) -> list | None:
     txt = "".join(lines[a].ljust(80)[23:80] + "".join(lines[a + k].ljust(80)[4:80] for k in range(1, 8))
                   for a in firsts).replace("D", "E").replace("d", "e")
     try:
-        f = np.frombuffer(txt.encode("ascii"), dtype="S19")
-        f = np.where(np.char.strip(f) == b"", b"0", f).astype(float)
+        raw = txt.encode("ascii")
+        f = np.frombuffer(raw, dtype="S19")
+        blank = (np.frombuffer(raw, dtype=np.uint8).reshape(-1, 19) == 32).all(axis=1)
+        f = np.where(blank, b"0", f).astype(float)
     except (ValueError, UnicodeEncodeError):
         return None
     return f.reshape(len(firsts), 31).tolist()

@@ -368,21 +368,23 @@ def _read_code_and_cn0(lines, i, plan, dbhz, header):
             return None
         mat = np.frombuffer(txt, dtype="S1").reshape(len(pos), width)
 
-        def column(a, b, dt):
-            return np.ascontiguousarray(mat[:, a:b]).view(dt)[:, 0]
+        def column(a, b):
+            block = np.ascontiguousarray(mat[:, a:b])
+            return block.view(f"S{b - a}")[:, 0], (block.view(np.uint8) == 32).all(axis=1)
 
         try:
-            prn = column(1, 3, "S2")
-            if not np.all(np.char.isdigit(np.char.strip(prn))):
-                return None
+            prn, _ = column(1, 3)
+            u = np.frombuffer(prn.tobytes(), np.uint8).reshape(-1, 2)
+            digit = (u >= 48) & (u <= 57)
+            if not np.all((digit | (u == 32)).all(axis=1) & digit.any(axis=1) & ~((u[:, 0] != 32) & (u[:, 1] == 32))):
+                return None                               # not "nn" or " n": the line-by-line reading names it
             prn = prn.astype(int)
             for r, (c, iC, _, _, iS) in enumerate(rows):
-                f = column(3 + 16 * iC, 17 + 16 * iC, "S14")
-                blank = np.char.strip(f) == b""
+                f, blank = column(3 + 16 * iC, 17 + 16 * iC)
                 v = np.where(blank, b"nan", f).astype(float)
                 if iS >= 0:
-                    g = column(3 + 16 * iS, 17 + 16 * iS, "S14")
-                    sv = np.where(np.char.strip(g) == b"", b"nan", g).astype(float)
+                    g, gblank = column(3 + 16 * iS, 17 + 16 * iS)
+                    sv = np.where(gblank, b"nan", g).astype(float)
                 else:
                     sv = np.full(len(pos), np.nan)
                 ok = ~np.isnan(v)
