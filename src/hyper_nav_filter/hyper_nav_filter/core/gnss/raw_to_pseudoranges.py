@@ -203,13 +203,15 @@ class EphemerisStore:
         the earlier reception time is kept)."""
         check_ephemeris(eph)
         key = (eph.system, int(eph.prn), eph.week, eph.toe)
+        known = key in self._received              # only then can a stored record have this week and toe
         self._received[key] = min(self._received.get(key, math.inf), float(received_s))
         self._select_cache.clear()
         recs = self._by_sat.setdefault((eph.system, int(eph.prn)), [])
-        for i, r in enumerate(recs):
-            if r.week == eph.week and r.toe == eph.toe:
-                recs[i] = eph
-                return False
+        if known:
+            for i, r in enumerate(recs):
+                if r.week == eph.week and r.toe == eph.toe:
+                    recs[i] = eph
+                    return False
         recs.append(eph)
         return True
 
