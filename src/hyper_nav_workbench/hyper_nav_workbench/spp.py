@@ -335,6 +335,7 @@ def _reader_line(inp) -> str:
 
 
 def main(argv=None) -> int:
+    cpu0 = time.process_time()              # the process's CPU so far: interpreter and imports (start-up)
     ap = parser()
     args = ap.parse_args(argv)
     data_dir = pathlib.Path(args.data_dir) if args.data_dir else default_data_dir()
@@ -372,10 +373,12 @@ def main(argv=None) -> int:
         print(f"spp: error: {exc}", file=sys.stderr)
         return 2
     print(_reader_line(inp))
+    cpu_read = time.process_time()
     t0 = time.perf_counter()
     with_rtklib = args.rtklib if direct else not args.no_rtklib
     result = spp_run.evaluate(inp, doc, ref, with_rtklib,
                               progress=lambda s: print(f"[spp] {s} ...", file=sys.stderr, flush=True))
+    cpu_solve = time.process_time()
     _print_result(inp, result)
     out = pathlib.Path(args.out or f"spp_{name}")
     out.mkdir(parents=True, exist_ok=True)
@@ -390,6 +393,11 @@ def main(argv=None) -> int:
         written.append(f"{args.fix_bag} (/gnss/fix NavSatFix: {n})")
     if (direct and args.plots) or (not direct and not args.no_plots):
         written += plots(result, out)
+    cpu_write = time.process_time()
+    # CPU seconds of this process by phase (the solve includes RTKLIB when run beside; the write includes plots
+    # when asked; spp.json's own writing is not counted)
+    result["cpu_s"] = {"startup": cpu0, "read": cpu_read - cpu0, "solve": cpu_solve - cpu_read,
+                       "write": cpu_write - cpu_solve}
     (out / "spp.json").write_text(json.dumps(_clean(result), indent=1, default=_json_default))
     print(f"[spp] wrote {out}/: spp.json" + (f", {', '.join(written)}" if written else "")
           + f" ({time.perf_counter() - t0:.1f} s)")

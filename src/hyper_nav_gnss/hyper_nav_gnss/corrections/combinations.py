@@ -21,6 +21,7 @@ for B1I/B3I.
 """
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,16 +83,43 @@ def choose_signals(raw, plan: dict, counters=None) -> list[Choice]:
     signal codes (the simulated receiver's) are read as each system's
     legacy signal."""
     from hyper_nav_gnss.signals import signal_code
+    finite_a = np.isfinite(np.asarray(raw.pseudorange_m, float))
+    prns_a = np.asarray(raw.prn)
+    # consecutive epochs of a file mostly have the same channels: the choice (and the counts it adds) kept
+    # per layout (systems, PRNs, codes, lock, finite code) and plan
+    key = (id(plan), tuple(raw.system), prns_a.tobytes(), prns_a.dtype.str, tuple(raw.signal),
+           np.asarray(raw.locked, bool).tobytes(), finite_a.tobytes())
+    got = _CHOICES.get(key)
+    if got is not None and got[0] is plan:
+        if counters is not None:
+            counters.update(got[2])
+        return list(got[1])
+    local = Counter()
+    out = _choose(raw, plan, local, finite_a.tolist(), prns_a.tolist(), signal_code)
+    if len(_CHOICES) > 256:
+        _CHOICES.clear()
+    _CHOICES[key] = (plan, tuple(out), local)
+    if counters is not None:
+        counters.update(local)
+    return out
+
+
+_CHOICES: dict = {}
+
+
+def _choose(raw, plan, counters, finite, prns, signal_code) -> list[Choice]:
     by_sat: dict = {}
-    for k, (s, p, ok) in enumerate(zip(raw.system, raw.prn, raw.locked)):
+    sig = raw.signal
+    for k, (s, ok) in enumerate(zip(raw.system, raw.locked)):
         if s not in plan:
             if counters is not None:
                 counters["signals_system_not_in_plan"] += 1
             continue
-        if not ok or not np.isfinite(raw.pseudorange_m[k]):
+        if not ok or not finite[k]:
             continue
-        code = signal_code(s, raw.signal_of(k)) if s in ("G", "E", "C", "J") else raw.signal_of(k)
-        by_sat.setdefault((s, int(p)), {}).setdefault(code, k)
+        c = sig[k] if sig else ""
+        code = (c or signal_code(s, c)) if s in ("G", "E", "C", "J") else c
+        by_sat.setdefault((s, int(prns[k])), {}).setdefault(code, k)
     out = []
     for (s, p), codes in by_sat.items():
         for ch in plan[s]:

@@ -27,6 +27,7 @@ Two steps, so the position-independent work is done once per epoch:
 """
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field, replace
 
@@ -113,7 +114,7 @@ def _select(store, system, prn, t_gpst_s, clock, counters, received_by_s=np.inf)
     on what was asked before or on the order the records came in."""
     cache = getattr(store, "_select_cache", None)
     n_recv = len(store.records_of(system, prn, received_by_s)) if hasattr(store, "records_of") else -1
-    key = (system, int(prn), clock, float(np.floor(t_gpst_s / SELECT_BUCKET_S)), n_recv)
+    key = (system, int(prn), clock, float(math.floor(t_gpst_s / SELECT_BUCKET_S)), n_recv)
     if cache is not None and key in cache:
         eph, why = cache[key]
         if why:
@@ -153,6 +154,9 @@ def _select_now(store, system, prn, t_gpst_s, clock, counters, received_by_s=np.
     return eph
 
 
+_GAL_CLOCK: dict = {}            # galileo_clock_for of a tuple of codes
+
+
 def satellite_observations(raw, store, model: ReceiverModel, counters: Counter | None = None,
                            exclude=()) -> SatelliteObservations:
     """Step 1 of the module docstring for one RawGnssEpoch. ``store``: an
@@ -162,28 +166,59 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
     choices = choose_signals(raw, model.plan, counters)
     keep, ephs, pr, dual, scale, svar, cn0, coef = [], [], [], [], [], [], [], []
     has_cn0 = len(raw.cn0_dbhz) == len(raw.system) and len(raw.system) > 0
+    # group delays and pair coefficients of a record and its codes, kept with the store (a record's numbers
+    # never change; the record itself is held in the entry, so a reused id() is recognised)
+    signal_cache = getattr(store, "_signal_cache", None)
+    if signal_cache is None and hasattr(store, "records_of"):
+        try:
+            store._signal_cache = signal_cache = {}
+        except AttributeError:
+            signal_cache = None
+    if signal_cache is not None and len(signal_cache) > 50000:
+        signal_cache.clear()
+    # the epoch's channels as Python lists: the same doubles, without a numpy scalar per access
+    pr_l = np.asarray(raw.pseudorange_m, float).tolist()
+    sg_l = np.asarray(raw.pseudorange_sigma_m, float).tolist()
+    cn_l = np.asarray(raw.cn0_dbhz, float).tolist() if has_cn0 else None
+    t_rx, t_s = raw.t_rx_gpst_s, raw.t_s
     for ch in choices:
-        sid = f"{ch.system}{ch.prn:02d}"
         if ch.system not in MODELLED_SYSTEMS:
             counters["satellites_system_not_modelled"] += 1
             continue
-        if sid in exclude:
+        if exclude and f"{ch.system}{ch.prn:02d}" in exclude:
             counters["satellites_excluded_by_user"] += 1
             continue
-        clock = galileo_clock_for(ch.codes) if ch.system == "E" else 0
-        eph = _select(store, ch.system, ch.prn, raw.t_rx_gpst_s, clock, counters, raw.t_s)
+        if ch.system == "E":
+            clock = _GAL_CLOCK.get(ch.codes)
+            if clock is None:
+                clock = _GAL_CLOCK[ch.codes] = galileo_clock_for(ch.codes)
+        else:
+            clock = 0
+        eph = _select(store, ch.system, ch.prn, t_rx, clock, counters, t_s)
         if eph is None:
             continue
-        try:
-            d = [group_delay_s(eph, c) for c in ch.codes]
-        except NoGroupDelay:
-            counters[f"no_group_delay_{ch.system}{ch.codes[0]}"] += 1
-            continue
-        p = [raw.pseudorange_m[k] - C_MPS * dk for k, dk in zip(ch.channels, d)]
-        s2 = [raw.pseudorange_sigma_m[k] ** 2 for k in ch.channels]
-        c0 = [raw.cn0_dbhz[k] if has_cn0 else np.nan for k in ch.channels]
+        key = (id(eph), ch.codes)
+        got = signal_cache.get(key) if signal_cache is not None else None
+        if got is None or got[0] is not eph:
+            try:
+                d = [group_delay_s(eph, c) for c in ch.codes]
+            except NoGroupDelay:
+                counters[f"no_group_delay_{ch.system}{ch.codes[0]}"] += 1
+                continue
+            if ch.dual:
+                a1, a2 = iono_free_coefficients(ch.system, *ch.codes)
+                sc = 0.0
+            else:
+                a1 = a2 = None
+                sc = (F_L1_HZ / frequency_hz(ch.system, ch.codes[0])) ** 2
+            got = (eph, d, a1, a2, sc)
+            if signal_cache is not None:
+                signal_cache[key] = got
+        _, d, a1, a2, sc = got
+        p = [pr_l[k] - C_MPS * dk for k, dk in zip(ch.channels, d)]
+        s2 = [sg_l[k] ** 2 for k in ch.channels]
+        c0 = [cn_l[k] for k in ch.channels] if has_cn0 else [np.nan] * len(ch.channels)
         if ch.dual:
-            a1, a2 = iono_free_coefficients(ch.system, *ch.codes)
             pr.append(a1 * p[0] - a2 * p[1])
             svar.append(a1 * a1 * s2[0] + a2 * a2 * s2[1])
             scale.append(0.0)
@@ -192,7 +227,7 @@ def satellite_observations(raw, store, model: ReceiverModel, counters: Counter |
         else:
             pr.append(p[0])
             svar.append(s2[0])
-            scale.append((F_L1_HZ / frequency_hz(ch.system, ch.codes[0])) ** 2)
+            scale.append(sc)
             cn0.append((c0[0], np.nan))
             coef.append((1.0, 0.0))
         dual.append(ch.dual)
@@ -256,8 +291,36 @@ class Corrected:
     sat_clock_drift_sps: np.ndarray
 
 
+def _static(obs: SatelliteObservations) -> tuple:
+    """Per-satellite numbers of an epoch that no position changes (earth
+    rotation rate of each record's system, system letters, record accuracy),
+    formed once per epoch and kept on the observations: :func:`corrected_at`
+    runs three or more times an epoch."""
+    st = obs.__dict__.get("_static")
+    if st is None:
+        we = np.array([constants(e.system)[1] for e in obs.ephemerides])
+        systems = np.array([c.system for c in obs.choices])
+        acc = np.array([e.accuracy_m for e in obs.ephemerides])
+        st = (we, systems, acc)
+        object.__setattr__(obs, "_static", st)
+    return st
+
+
+def _cn0_parts(obs: SatelliteObservations, em: ErrorModel) -> tuple:
+    """The C/N0 of each satellite's two signals (the first for the second
+    when it has none) and their position-independent variance parts
+    (:meth:`.weighting.ErrorModel.cn0_var_m2`), once per epoch."""
+    st = obs.__dict__.get("_cn0_parts")
+    if st is None:
+        c1 = obs.cn0_dbhz[:, 0]
+        c2 = np.where(np.isfinite(obs.cn0_dbhz[:, 1]), obs.cn0_dbhz[:, 1], obs.cn0_dbhz[:, 0])
+        st = (c1, c2, em.cn0_var_m2(c1), em.cn0_var_m2(c2))
+        object.__setattr__(obs, "_cn0_parts", st)
+    return st
+
+
 def _rot_sagnac(obs, r_s, r_a):
-    we = np.array([constants(e.system)[1] for e in obs.ephemerides])
+    we = _static(obs)[0]
     tau = np.linalg.norm(r_s - r_a, axis=1) / C_MPS
     c, s = np.cos(we * tau), np.sin(we * tau)
     R = np.zeros((len(tau), 3, 3))
@@ -286,15 +349,15 @@ def corrected_at(obs: SatelliteObservations, r_rx_e_m, clock_bias_m: float, mode
     rr = np.einsum("kij,kj->ki", R, r_s)
     near_earth = np.linalg.norm(r_a) > 6.0e6
     if near_earth:
-        el, az = elevation_azimuth(r_a, rr)
         lat, lon, alt = earth.ecef_to_geodetic(r_a)
+        el, az = elevation_azimuth(r_a, rr, (lat, lon, alt))
     else:                                           # first iterations from the Earth's centre: no geometry yet
         el, az = np.full(n, np.pi / 2), np.zeros(n)
         lat = lon = alt = 0.0
     iono = np.zeros(n)
     single = ~obs.dual
     if near_earth and single.any():
-        systems = np.array([c.system for c in obs.choices])
+        systems = _static(obs)[1]
         for sysc in set(systems[single]):
             ab = model.klobuchar_for(sysc)
             if ab is None:
@@ -307,9 +370,10 @@ def corrected_at(obs: SatelliteObservations, r_rx_e_m, clock_bias_m: float, mode
         var = obs.sig_var_m2.copy()
     else:
         em = model.errors
-        v1 = em.receiver_var_m2(el, obs.cn0_dbhz[:, 0])
-        v2 = em.receiver_var_m2(el, np.where(np.isfinite(obs.cn0_dbhz[:, 1]), obs.cn0_dbhz[:, 1], obs.cn0_dbhz[:, 0]))
+        c1, c2, p1, p2 = _cn0_parts(obs, em)
+        v1 = em.receiver_var_m2(el, c1, p1)
+        v2 = em.receiver_var_m2(el, c2, p2)
         rx = obs.coef[:, 0] ** 2 * v1 + obs.coef[:, 1] ** 2 * v2
-        acc = np.array([e.accuracy_m for e in obs.ephemerides])
+        acc = _static(obs)[2]
         var = rx + em.model_var_m2(el, acc, iono, obs.dual)
     return Corrected(r_s, v_s, R, pr, var, el, az, iono, tropo, clk, drift)

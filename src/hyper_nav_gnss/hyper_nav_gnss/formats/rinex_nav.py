@@ -198,8 +198,28 @@ def _header_iono(lines):
     raise RinexFormatError("?", None, "no END OF HEADER")
 
 
-def _record(lines, a, b, sysc, path, out) -> None:
-    """One 3.x-layout broadcast record at lines[a:b] (start line + 7 orbit lines)."""
+def _numbers(lines, firsts) -> list | None:
+    """The 3 clock and 28 orbit fields of every record starting at the lines
+    ``firsts`` (31 x 19 characters each), parsed by numpy in one call: the
+    doubles ``float()`` gives (blank fields 0). None when some field is not a
+    number: the records are then read one by one, the malformed ones named."""
+    if not firsts:
+        return []
+    txt = "".join(lines[a].ljust(80)[23:80] + "".join(lines[a + k].ljust(80)[4:80] for k in range(1, 8))
+                  for a in firsts).replace("D", "E").replace("d", "e")
+    try:
+        raw = txt.encode("ascii")
+        f = np.frombuffer(raw, dtype="S19")
+        blank = (np.frombuffer(raw, dtype=np.uint8).reshape(-1, 19) == 32).all(axis=1)
+        f = np.where(blank, b"0", f).astype(float)
+    except (ValueError, UnicodeEncodeError):
+        return None
+    return f.reshape(len(firsts), 31).tolist()
+
+
+def _record(lines, a, b, sysc, path, out, values=None) -> None:
+    """One 3.x-layout broadcast record at lines[a:b] (start line + 7 orbit lines);
+    ``values``: its 31 numeric fields already parsed (:func:`_numbers`)."""
     h = lines[a]
     try:
         if b - a < 8:
@@ -208,8 +228,18 @@ def _record(lines, a, b, sysc, path, out) -> None:
         y, mo, dd, hh, mi, ss = (int(h[4:8]), int(h[9:11]), int(h[12:14]), int(h[15:17]),
                                  int(h[18:20]), int(h[21:23]))
         toc_s = calendar_to_system_s(sysc, y, mo, dd, hh, mi, ss)
-        clk = _fields(h.ljust(80), 23, 3)
-        orb = [_fields(lines[a + k].ljust(80), 4) for k in range(1, 8)]
+        if values is not None:
+            out.append(_build(sysc, prn, toc_s, values[:3], [values[3 + 4 * k:7 + 4 * k] for k in range(7)]))
+            out.counts[sysc] += 1
+            return
+        # the 3 clock and 28 orbit fields (19 characters each) as one text: one D -> E pass, float() per field
+        # (it takes the blanks around a number); the same values as _fields, a third of its time
+        txt = (h.ljust(80)[23:80] + "".join(lines[a + k].ljust(80)[4:80] for k in range(1, 8))) \
+            .replace("D", "E").replace("d", "e")
+        v = [float(x) if not x.isspace() else 0.0 for x in
+             (txt[19 * j:19 * (j + 1)] for j in range(31))]
+        clk = v[:3]
+        orb = [v[3 + 4 * k:7 + 4 * k] for k in range(7)]
         out.append(_build(sysc, prn, toc_s, clk, orb))
         out.counts[sysc] += 1
     except ValueError as exc:
@@ -225,12 +255,21 @@ def _read_v3(lines, path, systems) -> Rinex3Nav:
     out = Rinex3Nav()
     starts = [k for k in range(i, len(lines)) if _START3.match(lines[k])]
     starts.append(len(lines))
+    chosen = []
     for a, b in zip(starts[:-1], starts[1:]):
         sysc = lines[a][0]
         if sysc not in systems:
             out.counts[f"skipped_{sysc}"] += 1
             continue
-        _record(lines, a, b, sysc, path, out)
+        chosen.append((a, b, sysc))
+    values = _numbers(lines, [a for a, b, _ in chosen if b - a >= 8])
+    k = 0
+    for a, b, sysc in chosen:
+        if values is not None and b - a >= 8:
+            _record(lines, a, b, sysc, path, out, values[k])
+            k += 1
+        else:
+            _record(lines, a, b, sysc, path, out)
     for s, ka, kb in (("G", "GPSA", "GPSB"), ("C", "BDSA", "BDSB"), ("J", "QZSA", "QZSB")):
         if ka in hdr and kb in hdr:
             out.iono[s] = (hdr[ka], hdr[kb])

@@ -288,6 +288,13 @@ def read_rinex_obs(path, signals=None, max_epochs: int | None = None, observable
     dbhz = obs.header["signal_strength_unit"] in ("DBHZ", "")
     name = Path(path).name
     n_lines = len(lines)
+    if max_epochs is None and plan and all(r[2] < 0 and r[3] < 0 for rows in plan.values() for r in rows):
+        fast = _read_code_and_cn0(lines, i, plan, dbhz, obs.header)
+        if fast is not None:                         # a well-formed file: every epoch at once
+            epochs, counts = fast
+            obs.epochs += epochs
+            obs.counts.update(counts)
+            return obs
     while i < n_lines:
         ln = lines[i]
         if not ln.startswith(">"):
@@ -316,6 +323,115 @@ def read_rinex_obs(path, signals=None, max_epochs: int | None = None, observable
         if flag == 1:
             obs.counts["epochs_power_failure_flag"] += 1
     return obs
+
+
+def _read_code_and_cn0(lines, i, plan, dbhz, header):
+    """The epochs of a file read for codes and C/N0 only (no phase, no
+    Doppler: single-point positioning) with the numbers of every satellite
+    line parsed by numpy at once: the same epochs, channels and values as
+    the line-by-line reading below. Returns (epochs, counts), or None when a
+    line is not as the format says (the line-by-line reading then names it)."""
+    n_lines = len(lines)
+    counts = Counter()
+    bodies = []                                           # (t, first body line, n satellites)
+    while i < n_lines:
+        ln = lines[i]
+        m = _EPOCH.match(ln) if ln.startswith(">") else None
+        if not m:
+            return None
+        y, mo, d, hh, mi = (int(m.group(k)) for k in range(1, 6))
+        sec, flag, nsat = float(m.group(6)), int(m.group(7)), int(m.group(8))
+        if i + 1 + nsat > n_lines:
+            return None
+        if flag > 1:
+            counts[f"event_epochs_flag{flag}"] += 1
+        else:
+            bodies.append((calendar_to_system_s("G", y, mo, d, hh, mi, sec), i + 1, nsat, flag))
+        i += 1 + nsat
+    # every satellite line of the kept epochs, by system
+    line_no, ep_of = [], []
+    for e, (_, a, n, _) in enumerate(bodies):
+        line_no.extend(range(a, a + n))
+        ep_of.extend([e] * n)
+    line_no = np.asarray(line_no, int)
+    ep_of = np.asarray(ep_of, int)
+    first = np.array([lines[k][:1] for k in line_no]) if len(line_no) else np.zeros(0, "U1")
+    parts = []                        # (global line position, row, system, code, value, C/N0, prn)
+    for sysc, rows in plan.items():
+        pos = np.flatnonzero(first == sysc)
+        if not len(pos):
+            continue
+        width = 3 + 16 * (max(max(r[1], r[4]) for r in rows) + 1)
+        try:
+            txt = "".join(lines[k][:width].ljust(width) for k in line_no[pos]).encode("ascii")
+        except UnicodeEncodeError:
+            return None
+        mat = np.frombuffer(txt, dtype="S1").reshape(len(pos), width)
+
+        def column(a, b):
+            block = np.ascontiguousarray(mat[:, a:b])
+            return block.view(f"S{b - a}")[:, 0], (block.view(np.uint8) == 32).all(axis=1)
+
+        try:
+            prn, _ = column(1, 3)
+            u = np.frombuffer(prn.tobytes(), np.uint8).reshape(-1, 2)
+            digit = (u >= 48) & (u <= 57)
+            if not np.all((digit | (u == 32)).all(axis=1) & digit.any(axis=1) & ~((u[:, 0] != 32) & (u[:, 1] == 32))):
+                return None                               # not "nn" or " n": the line-by-line reading names it
+            prn = prn.astype(int)
+            for r, (c, iC, _, _, iS) in enumerate(rows):
+                f, blank = column(3 + 16 * iC, 17 + 16 * iC)
+                v = np.where(blank, b"nan", f).astype(float)
+                if iS >= 0:
+                    g, gblank = column(3 + 16 * iS, 17 + 16 * iS)
+                    sv = np.where(gblank, b"nan", g).astype(float)
+                else:
+                    sv = np.full(len(pos), np.nan)
+                ok = ~np.isnan(v)
+                pn = prn[ok]
+                if sysc == "R":
+                    fr = np.array([_frequency(sysc, c, q, header) for q in pn.tolist()], float)
+                else:
+                    fr = np.full(len(pn), _frequency(sysc, c, 0, header))
+                parts.append((pos[ok], np.full(ok.sum(), r), sysc, c, v[ok], sv[ok], pn, fr))
+        except ValueError:
+            return None
+    if parts:
+        gpos = np.concatenate([q[0] for q in parts])
+        order = np.lexsort((np.concatenate([q[1] for q in parts]), gpos))      # file order, then plan order
+        gpos = gpos[order]
+        sysl = np.concatenate([np.full(len(q[0]), q[2]) for q in parts])[order].tolist()
+        code = np.concatenate([np.full(len(q[0]), q[3], dtype=object) for q in parts])[order].tolist()
+        pr = np.concatenate([q[4] for q in parts])[order]
+        cn0 = np.concatenate([q[5] for q in parts])[order] if dbhz else np.full(len(gpos), np.nan)
+        prn = np.concatenate([q[6] for q in parts])[order].astype(int)
+        freq = np.concatenate([q[7] for q in parts])[order]
+    else:
+        gpos, sysl, code, pr, cn0 = np.zeros(0, int), [], [], np.zeros(0), np.zeros(0)
+        prn, freq = np.zeros(0, int), np.zeros(0)
+    sig_ep = ep_of[gpos] if len(gpos) else np.zeros(0, int)
+    bounds = np.searchsorted(sig_ep, np.arange(len(bodies) + 1)).tolist()
+    # every channel's arrays once (the same expressions, element by element), then cut per epoch
+    sigma = code_sigma_m(cn0)
+    nan = np.full(len(gpos), np.nan)
+    lam = C_MPS / freq
+    rate, rate_sig = -nan * lam, np.full(len(gpos), 0.1) * lam
+    locked, flags = np.ones(len(gpos), bool), np.full(len(gpos), TRACK_PR_VALID, np.uint8)
+    epochs = []
+    for e, (t, _, _, flag) in enumerate(bodies):
+        a, b = bounds[e], bounds[e + 1]
+        if a == b:
+            counts["epochs_without_selected_signal"] += 1
+        else:
+            counts["signals"] += b - a
+            epochs.append(RawGnssEpoch(float(t), float(t), tuple(sysl[a:b]), prn[a:b].copy(), pr[a:b].copy(),
+                                       sigma[a:b].copy(), rate[a:b].copy(), rate_sig[a:b].copy(), locked[a:b].copy(),
+                                       tuple(code[a:b]), nan[a:b].copy(), nan[a:b].copy(), cn0[a:b].copy(),
+                                       np.zeros(0), flags[a:b].copy(), freq[a:b].copy()))
+            counts["epochs"] += 1
+        if flag == 1:
+            counts["epochs_power_failure_flag"] += 1
+    return epochs, counts
 
 
 def _value(ln: str, k: int) -> float:

@@ -32,10 +32,11 @@ from hyper_nav_gnss import earth
 from hyper_nav_gnss.positioning.dop import dops
 from hyper_nav_gnss.positioning.raim import global_statistic, standardized_residuals, threshold
 from hyper_nav_gnss.corrections.receiver_model import (
-    ReceiverModel, corrected_at, satellite_observations, states_from_pseudoranges,
+    ReceiverModel, _static, corrected_at, satellite_observations, states_from_pseudoranges,
 )
 
 from hyper_nav_gnss.constants import C_MPS
+from hyper_nav_gnss.corrections.propagation import hopfield_delay_m, klobuchar_delay_m
 
 SYSTEM_ORDER = ("G", "E", "C", "J")
 BATCH_EPOCHS = 600              # epochs whose satellite orbits are evaluated together (:func:`states_batch`)
@@ -105,12 +106,14 @@ def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool)
     it = 0
     x = None
     warm = use_mask and np.linalg.norm(r) > 6.0e6          # started from a position near the antenna
+    sys_all = _static(obs)[1]
     for it in range(1, cfg.max_iterations + 1):
         cor = corrected_at(obs, r, b, model, states)
         if use_mask and np.linalg.norm(r) > 6.0e6:
             ok = cor.el_rad >= model.elevation_mask_rad
         idx = np.flatnonzero(ok)
-        systems = [s for s in systems_all if any(obs.choices[k].system == s for k in idx)]
+        sys_of = sys_all[idx]
+        systems = [s for s in systems_all if (sys_of == s).any()]
         m = 3 + len(systems)
         if len(idx) < m:
             return None
@@ -120,11 +123,10 @@ def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool)
         u = d / rho[:, None]
         H = np.zeros((len(idx), m))
         H[:, :3] = u
-        sys_of = [obs.choices[k].system for k in idx]
         for j, s in enumerate(systems):
-            H[:, 3 + j] = [1.0 if q == s else 0.0 for q in sys_of]
-            if j > 0:
-                H[:, 3] = 1.0                      # reference clock on every row, ISB on its system's rows
+            H[:, 3 + j] = sys_of == s
+        if len(systems) > 1:
+            H[:, 3] = 1.0                          # reference clock on every row, ISB on its system's rows
         if x is None or len(x) != m:
             x = np.concatenate([r, [b], np.zeros(m - 4)])
         pred = rho + H[:, 3:] @ x[3:]
@@ -155,25 +157,42 @@ def states_batch(obs_list) -> list:
     by element: equal to the per-epoch evaluation, tested), then split back
     per epoch. Per-epoch evaluation was 8 small-array calls an epoch, 23 % of
     the solve time in the profile."""
-    from hyper_nav_gnss.orbits.ephemeris import EphemerisStack, satellite_position_ecef, system_time_s
+    from hyper_nav_gnss.orbits.ephemeris import satellite_position_ecef, system_time_s
     from hyper_nav_gnss.corrections.receiver_model import SatelliteStates
+    sizes = [len(o) for o in obs_list]
+    off = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    flat_ephs = [e for o in obs_list for e in o.ephemerides]
+    n = len(flat_ephs)
+    flat_pr = np.concatenate([o.pr_m for o in obs_list]) if n else np.zeros(0)
+    flat_ep = np.repeat(np.arange(len(obs_list)), sizes)
     rows: dict = {}
-    for k, obs in enumerate(obs_list):
-        for j, e in enumerate(obs.ephemerides):
-            rows.setdefault((e.system, e.is_geo), []).append((k, j))
-    out_r = [np.empty((len(o), 3)) for o in obs_list]
-    out_v = [np.empty((len(o), 3)) for o in obs_list]
-    out_c = [np.empty(len(o)) for o in obs_list]
-    out_d = [np.empty(len(o)) for o in obs_list]
-    for (system, _), kj in rows.items():
-        stack = EphemerisStack([obs_list[k].ephemerides[j] for k, j in kj])
-        t_sys = np.array([float(system_time_s(system, obs_list[k].t_rx_gpst_s)) for k, _ in kj])
-        tau = np.array([obs_list[k].pr_m[j] for k, j in kj]) / C_MPS
+    for i, e in enumerate(flat_ephs):
+        rows.setdefault((e.system, e.is_geo), []).append(i)
+    R, V, C, D = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n)
+    for (system, _), ii in rows.items():
+        ii = np.asarray(ii, int)
+        stack = _stack_rows([flat_ephs[i] for i in ii])
+        t_ep = np.array([float(system_time_s(system, o.t_rx_gpst_s)) for o in obs_list])
+        t_sys = t_ep[flat_ep[ii]]
+        tau = flat_pr[ii] / C_MPS
         c0 = satellite_position_ecef(stack, t_sys, -tau)[2]
-        r, v, c, d = satellite_position_ecef(stack, t_sys, -tau - c0)
-        for i, (k, j) in enumerate(kj):
-            out_r[k][j], out_v[k][j], out_c[k][j], out_d[k][j] = r[i], v[i], c[i], d[i]
-    return [SatelliteStates(a, b, c, d) for a, b, c, d in zip(out_r, out_v, out_c, out_d)]
+        R[ii], V[ii], C[ii], D[ii] = satellite_position_ecef(stack, t_sys, -tau - c0)
+    return [SatelliteStates(R[a:b], V[a:b], C[a:b], D[a:b]) for a, b in zip(off[:-1], off[1:])]
+
+
+def _stack_rows(ephs):
+    """``EphemerisStack(ephs)`` built from the distinct records only (a record
+    serves a satellite for every epoch of its validity: ~30x fewer), its
+    arrays then indexed per row: the same numbers."""
+    from hyper_nav_gnss.orbits.ephemeris import _STACKED_FIELDS, EphemerisStack
+    uniq: dict = {}
+    idx = np.array([uniq.setdefault(id(e), (len(uniq), e))[0] for e in ephs], int)
+    base = EphemerisStack([e for _, e in uniq.values()])
+    st = object.__new__(EphemerisStack)
+    st.system, st.is_geo = base.system, base.is_geo
+    for name in _STACKED_FIELDS + ("toe_s", "toc_s"):
+        setattr(st, name, getattr(base, name)[idx])
+    return st
 
 
 def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = None,
@@ -205,7 +224,8 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     active = np.ones(len(obs), bool)
     excluded = []
     x, cor, H, v, var, idx, it, systems = res
-    below = [obs.sat_ids[k] for k in range(len(obs)) if k not in set(idx)]
+    in_fit, sat_ids = set(idx.tolist()), obs.sat_ids
+    below = [sat_ids[k] for k in range(len(obs)) if k not in in_fit]
     while True:
         dof = len(idx) - H.shape[1]
         T = global_statistic(v, var)
@@ -257,22 +277,290 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     return sol
 
 
-def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None) -> list[SppSolution]:
+def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None,
+          batched: bool = True) -> list[SppSolution]:
     """SPP of every epoch, each started from the previous valid solution (the
     first from ``x0`` = [x, y, z, b], e.g. a RINEX header's approximate
-    position; None = the Earth's centre)."""
+    position; None = the Earth's centre).
+
+    ``batched``: the epochs of a block are solved together
+    (:func:`_batch_solve`, the same iterations on arrays of every epoch)
+    where that gives what :func:`solve_epoch` gives; an epoch the batch does
+    not settle (too few satellites, a RAIM alarm, no degree of freedom, no
+    start yet, or the epoch after such one) is solved by :func:`solve_epoch`
+    from the previous solution, as before."""
     counters = counters if counters is not None else Counter()
     out = []
     for a in range(0, len(epochs), BATCH_EPOCHS):
         block = epochs[a:a + BATCH_EPOCHS]
         obs_list = [satellite_observations(raw, store, cfg.model, counters, exclude=cfg.exclude) for raw in block]
         states = states_batch(obs_list)
-        for raw, obs, st in zip(block, obs_list, states):
-            s = solve_epoch(raw, store, cfg, x0, counters, obs=obs, states=st if len(obs) >= 4 else None)
+        k0 = 0
+        while batched and k0 < len(block) and (x0 is None or not np.all(np.isfinite(x0))):
+            s = solve_epoch(block[k0], store, cfg, x0, counters, obs=obs_list[k0],      # no start yet: one by one
+                            states=states[k0] if len(obs_list[k0]) >= 4 else None)
             out.append(s)
             if s.valid:
                 x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
+            k0 += 1
+        block, obs_list, states = block[k0:], obs_list[k0:], states[k0:]
+        start = None if x0 is None or not np.all(np.isfinite(x0)) else np.asarray(x0, float)[:4]
+        batch = _batch_solve(block, obs_list, states, cfg, start) if batched and start is not None and block else None
+        prev_from_batch = True
+        for k, (raw, obs, st) in enumerate(zip(block, obs_list, states)):
+            s = batch[k] if batch is not None and prev_from_batch else None
+            if s is None:
+                s = solve_epoch(raw, store, cfg, x0, counters, obs=obs, states=st if len(obs) >= 4 else None)
+                prev_from_batch = False
+            else:
+                counters[f"epochs_{s.status}"] += 1
+                prev_from_batch = True
+            out.append(s)
+            if s.valid:
+                x0 = np.concatenate([s.pos_ecef_m, [s.clock_bias_m]])
+            if not s.valid and s.status != "too_few_satellites":
+                prev_from_batch = False
     return out
+
+
+class _Block:
+    """The satellites of a block of epochs as (epochs x satellites) arrays,
+    padded rows flagged off in ``row``."""
+
+    def __init__(self, obs_list, states, cfg: SppConfig):
+        E = len(obs_list)
+        S = max([len(o) for o in obs_list] + [1])
+        self.E, self.S = E, S
+        self.row = np.zeros((E, S), bool)
+        self.r_s = np.tile(np.array([2.6e7, 0.0, 0.0]), (E, S, 1))
+        self.clk = np.zeros((E, S))
+        self.we = np.zeros((E, S))
+        self.pr0 = np.zeros((E, S))
+        self.scale = np.zeros((E, S))
+        self.dual = np.ones((E, S), bool)
+        self.sys = np.full((E, S), -1)
+        self.acc = np.ones((E, S))
+        self.coef = np.zeros((E, S, 2))
+        cn0 = np.full((E, S, 2), 45.0)
+        self.t_rx = np.zeros(E)
+        self.ok_epoch = np.zeros(E, bool)
+        for e, (o, st) in enumerate(zip(obs_list, states)):
+            n = len(o)
+            self.t_rx[e] = o.t_rx_gpst_s
+            if n < 4:
+                continue
+            we, systems, acc = _static(o)
+            self.row[e, :n] = True
+            self.r_s[e, :n] = st.r_sat_e_m
+            self.clk[e, :n] = st.clock_s
+            self.we[e, :n] = we
+            self.pr0[e, :n] = o.pr_m
+            self.scale[e, :n] = o.iono_scale
+            self.dual[e, :n] = o.dual
+            self.sys[e, :n] = [SYSTEM_ORDER.index(q) for q in systems]
+            self.acc[e, :n] = acc
+            self.coef[e, :n] = o.coef
+            cn0[e, :n] = o.cn0_dbhz
+            self.ok_epoch[e] = True
+        # the C/N0 parts of the weights (receiver_model._cn0_parts, element by element)
+        self.c = [cn0[..., 0], np.where(np.isfinite(cn0[..., 1]), cn0[..., 1], cn0[..., 0])]
+        if cfg.model.errors is not None:
+            self.parts = [cfg.model.errors.cn0_var_m2(c) for c in self.c]
+            for finite, valid, _ in self.parts:          # a finite C/N0 <= 0: the per-epoch path (its default sigma)
+                self.ok_epoch &= ~(finite & ~valid).any(axis=1)
+
+    def evaluate(self, r, b, model):
+        """:func:`.receiver_model.corrected_at` of every epoch at once (receiver
+        near the Earth's surface): (rotated satellite positions, corrected
+        pseudoranges, variances, elevations, azimuths, lat, lon)."""
+        tau = np.sqrt(np.sum((self.r_s - r[:, None, :]) ** 2, axis=2)) / C_MPS
+        c, s = np.cos(self.we * tau), np.sin(self.we * tau)
+        x, y, z = self.r_s[..., 0], self.r_s[..., 1], self.r_s[..., 2]
+        rr = np.stack([c * x + s * y, -s * x + c * y, z], axis=2)
+        lat, lon, alt = earth.ecef_to_geodetic(r)
+        sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+        d = rr - r[:, None, :]
+        e_ = -so[:, None] * d[..., 0] + co[:, None] * d[..., 1]
+        n_ = (-sl * co)[:, None] * d[..., 0] + (-sl * so)[:, None] * d[..., 1] + cl[:, None] * d[..., 2]
+        u_ = (cl * co)[:, None] * d[..., 0] + (cl * so)[:, None] * d[..., 1] + sl[:, None] * d[..., 2]
+        el = np.arctan2(u_, np.hypot(e_, n_))
+        az = np.mod(np.arctan2(e_, n_), 2 * np.pi)
+        iono = np.zeros_like(el)
+        single = ~self.dual & self.row
+        if single.any():
+            t_rx = (self.t_rx - b / C_MPS)[:, None]
+            for j, sysc in enumerate(SYSTEM_ORDER):
+                k = single & (self.sys == j)
+                ab = model.klobuchar_for(sysc) if k.any() else None
+                if ab is None:
+                    continue
+                kb = klobuchar_delay_m(ab[0], ab[1], lat[:, None], lon[:, None], np.maximum(el, 0.0), az, t_rx)
+                iono = np.where(k, kb * self.scale, iono)
+        tropo = hopfield_delay_m(np.maximum(el, 0.0), alt[:, None])[0] if model.troposphere else np.zeros_like(el)
+        pr = self.pr0 + C_MPS * self.clk - iono - tropo
+        em = model.errors
+        v1 = em.receiver_var_m2(el, self.c[0], self.parts[0])
+        v2 = em.receiver_var_m2(el, self.c[1], self.parts[1])
+        rx = self.coef[..., 0] ** 2 * v1 + self.coef[..., 1] ** 2 * v2
+        var = rx + em.model_var_m2(el, self.acc, iono, self.dual)
+        return rr, pr, np.where(self.row, var, 1.0), el, az
+
+
+def _batch_solve(block, obs_list, states, cfg: SppConfig, start) -> list:
+    """:func:`solve_epoch` of every epoch of a block on arrays, for the
+    epochs where no satellite is excluded: twice, first every epoch from
+    ``start``, then each from the previous epoch's first-pass solution (the
+    start :func:`solve` gives it, to the last few digits), with the same
+    Gauss-Newton steps, elevation mask, stop rule and residual test. Returns
+    per epoch an SppSolution, or None where :func:`solve_epoch` must decide
+    (fewer than 4 satellites, too few above the mask, a RAIM alarm, no
+    degree of freedom, C/N0 <= 0, receiver-sigma weighting)."""
+    if cfg.model.errors is None:
+        return None
+    blk = _Block(obs_list, states, cfg)
+    E = blk.E
+    x_first = _batch_gauss_newton(blk, cfg, np.tile(start, (E, 1)), blk.ok_epoch.copy())
+    if x_first is None:
+        return None
+    xs = x_first[0]
+    good = x_first[-1]
+    starts = np.empty((E, 4))
+    last = np.asarray(start, float)
+    for e in range(E):                          # each epoch from the previous first-pass solution
+        starts[e] = last
+        if good[e]:
+            last = xs[e, :4]
+    res = _batch_gauss_newton(blk, cfg, starts, blk.ok_epoch.copy())
+    if res is None:
+        return None
+    x, m, ok, H, it, pr, var, el, az, rr, slot, sysp, good = res
+    # everything :func:`solve_epoch` reports, for every epoch at once (unused clock columns: identity)
+    P = H.shape[2]
+    unused = np.arange(P)[None, :] >= m[:, None]
+    eye = np.zeros((E, P, P))
+    eye[:, np.arange(P), np.arange(P)] = unused
+    r = x[:, :3]
+    rho_all = np.sqrt(np.sum((r[:, None, :] - rr) ** 2, axis=2))
+    v_all = pr - (rho_all + np.einsum("esj,ej->es", H[..., 3:], x[:, 3:]))
+    W = np.where(ok, 1.0 / var, 0.0)
+    T_all = np.sum(np.where(ok, v_all * v_all * W, 0.0), axis=1)
+    dof_all = ok.sum(axis=1) - m
+    try:
+        cov = np.linalg.inv(np.einsum("esi,es,esj->eij", H, W, H) + eye)
+        Q = np.linalg.inv(np.einsum("esi,esj->eij", H, H) + eye)
+    except np.linalg.LinAlgError:
+        return None
+    lat, lon, _ = earth.ecef_to_geodetic(r)
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    Cne = np.stack([np.stack([-so, -sl * co, cl * co], 1), np.stack([co, -sl * so, cl * so], 1),
+                    np.stack([np.zeros(E), cl, sl], 1)], 1)                    # ENU -> ECEF per epoch
+    Qp = np.einsum("eji,ejk,ekl->eil", Cne, Q[:, :3, :3], Cne)
+    qd = np.diagonal(Q, axis1=1, axis2=2)
+    gdop = np.sqrt(np.sum(np.where(unused, 0.0, qd), axis=1))
+    pdop = np.sqrt(qd[:, 0] + qd[:, 1] + qd[:, 2])
+    hdop, vdop, tdop = np.sqrt(Qp[:, 0, 0] + Qp[:, 1, 1]), np.sqrt(Qp[:, 2, 2]), np.sqrt(qd[:, 3])
+    sys_safe = np.maximum(blk.sys, 0)
+    rows = np.arange(E)[:, None]
+    present = sysp[rows, sys_safe]
+    isb_slot = slot[rows, sys_safe]
+    clk_all = x[:, 3:4] + np.where(present & (isb_slot > 0), np.take_along_axis(x, 3 + np.maximum(isb_slot, 0), 1),
+                                   0.0)
+    out = [None] * E
+    for e in np.flatnonzero(good & (dof_all >= 1)):
+        dof = int(dof_all[e])
+        T = float(T_all[e])
+        thr = threshold(dof, cfg.p_fa)
+        if not T <= thr:
+            continue
+        o, raw = obs_list[e], block[e]
+        n = len(o)
+        me = int(m[e])
+        xe = x[e, :me]
+        systems = [SYSTEM_ORDER[j] for j in range(len(SYSTEM_ORDER)) if sysp[e, j]]
+        used = ok[e, :n].copy()
+        sat_ids = o.sat_ids
+        out[e] = SppSolution(
+            float(raw.t_s), float(raw.t_rx_gpst_s), "ok", xe[:3].copy(), cov[e, :3, :3].copy(), float(xe[3]),
+            systems[0], {q: float(xe[3 + j]) for j, q in enumerate(systems) if j > 0},
+            {"gdop": float(gdop[e]), "pdop": float(pdop[e]), "hdop": float(hdop[e]), "vdop": float(vdop[e]),
+             "tdop": float(tdop[e])}, sat_ids,
+            pr[e, :n] - rho_all[e, :n] - clk_all[e, :n], np.sqrt(var[e, :n]), el[e, :n], az[e, :n],
+            o.cn0_dbhz[:, 0], o.dual, used, [], [sat_ids[k] for k in np.flatnonzero(~used)], T, float(thr), dof,
+            int(it[e]))
+    return out
+
+
+def _batch_gauss_newton(blk: _Block, cfg: SppConfig, x0, active):
+    """The iterations of :func:`_least_squares` (``use_mask``, a start near the
+    antenna) for every active epoch at once. Returns (x, m, ok, H, iterations,
+    pr, var, el, az, rotated satellites, system slots, systems present, good)
+    at the end, good False where an epoch had too few satellites or a
+    singular system; or None when no epoch is active."""
+    model = cfg.model
+    E, S = blk.E, blk.S
+    active = active & (np.linalg.norm(x0[:, :3], axis=1) > 6.0e6)
+    if not active.any():
+        return None
+    NS = len(SYSTEM_ORDER)
+    x = np.zeros((E, 3 + NS))
+    x[:, :4] = x0[:, :4]
+    m_prev = np.full(E, -1)
+    done = ~active
+    good = active.copy()
+    it_of = np.zeros(E, int)
+    H = np.zeros((E, S, 3 + NS))
+    ok = np.zeros((E, S), bool)
+    m = np.full(E, 4)
+    slot = np.zeros((E, NS), int)
+    sysp = np.zeros((E, NS), bool)
+    rows = np.arange(E)
+    for it in range(1, cfg.max_iterations + 1):
+        run = ~done
+        if not run.any():
+            break
+        rr, pr, var, el, az = blk.evaluate(x[:, :3], x[:, 3], model)
+        ok_new = (el >= model.elevation_mask_rad) & blk.row
+        sysp_new = np.stack([(ok_new & (blk.sys == j)).any(axis=1) for j in range(NS)], axis=1)
+        m_new = 3 + sysp_new.sum(axis=1)
+        few = run & (ok_new.sum(axis=1) < m_new)
+        good &= ~few
+        done |= few
+        run &= ~few
+        ok[run], sysp[run], m[run] = ok_new[run], sysp_new[run], m_new[run]
+        slot[run] = np.cumsum(sysp_new[run], axis=1) - 1
+        reset = run & (m != m_prev)
+        x[reset, 4:] = 0.0
+        m_prev[run] = m[run]
+        d = x[:, None, :3] - rr
+        rho = np.sqrt(np.sum(d * d, axis=2))
+        Hn = np.zeros((E, S, 3 + NS))
+        Hn[..., :3] = d / rho[..., None]
+        sl_of = np.where(blk.sys >= 0, slot[rows[:, None], np.maximum(blk.sys, 0)], -1)
+        for j in range(NS):
+            Hn[..., 3 + j] = (sl_of == j) & sysp[rows[:, None], np.maximum(blk.sys, 0)]
+        multi = sysp.sum(axis=1) > 1
+        Hn[multi, :, 3] = 1.0
+        Hn *= ok[..., None]
+        H[run] = Hn[run]
+        pred = rho + np.einsum("esj,ej->es", H[..., 3:], x[:, 3:])
+        v = np.where(ok, pr - pred, 0.0)
+        w = np.where(ok, 1.0 / var, 0.0)
+        N = np.einsum("esi,es,esj->eij", H, w, H)
+        unused = np.arange(3 + NS)[None, :] >= m[:, None]
+        N[:, np.arange(3 + NS), np.arange(3 + NS)] += unused
+        rhs = np.einsum("esi,es->ei", H, w * v)
+        try:
+            dx = np.linalg.solve(N[run], rhs[run][..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            return None
+        x[run] += dx
+        it_of[run] = it
+        step = np.linalg.norm(dx[:, :3], axis=1)
+        stop = np.zeros(E, bool)
+        stop[run] = (it > 1) & ((step < cfg.tol_m) | (step < cfg.warm_tol_m))
+        done |= stop
+    rr, pr, var, el, az = blk.evaluate(x[:, :3], x[:, 3], model)
+    return x, m, ok, H, it_of, pr, var, el, az, rr, slot, sysp, good
 
 
 @dataclass

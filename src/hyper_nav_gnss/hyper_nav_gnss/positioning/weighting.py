@@ -57,15 +57,31 @@ class ErrorModel:
         if self.weighting not in WEIGHTINGS:
             raise ValueError(f"weighting: expected one of {WEIGHTINGS}, got {self.weighting!r}")
 
-    def receiver_var_m2(self, el_rad, cn0_dbhz):
-        """Receiver noise + multipath variance of one signal [m^2]."""
+    def receiver_var_m2(self, el_rad, cn0_dbhz, cn0_part=None):
+        """Receiver noise + multipath variance of one signal [m^2].
+        ``cn0_part``: :meth:`cn0_var_m2` of ``cn0_dbhz`` when the caller
+        keeps it (it does not depend on the position; the same numbers)."""
         s = np.maximum(np.sin(np.asarray(el_rad, float)), 0.05)
         v_el = self.a_m ** 2 + self.b_m ** 2 / s ** 2
         if self.weighting == "elevation":
             return v_el
-        v_cn = code_sigma_m(cn0_dbhz, default_m=np.sqrt(v_el).max() if np.size(v_el) else 3.0) ** 2
-        v_cn = np.where(np.isfinite(np.asarray(cn0_dbhz, float)), v_cn, v_el)
+        finite, valid, var_c = cn0_part if cn0_part is not None else self.cn0_var_m2(cn0_dbhz)
+        if valid.all():
+            v_cn = var_c
+        else:
+            default_m = np.sqrt(v_el).max() if np.size(v_el) else 3.0
+            v_cn = np.where(valid, var_c, default_m ** 2)
+        v_cn = np.where(finite, v_cn, v_el)
         return v_cn if self.weighting == "cn0" else np.maximum(v_el, v_cn)
+
+    @staticmethod
+    def cn0_var_m2(cn0_dbhz):
+        """(C/N0 finite, C/N0 finite and > 0, :func:`code_sigma_m` squared
+        where valid): the position-independent part of :meth:`receiver_var_m2`."""
+        c = np.asarray(cn0_dbhz, float)
+        s = np.sqrt(CN0_CONSTANT_M2HZ * 10.0 ** (-np.nan_to_num(c, nan=-np.inf) / 10.0))
+        valid = np.isfinite(c) & (c > 0)
+        return np.isfinite(c), valid, np.where(valid, np.clip(s, 0.1, 30.0), 0.0) ** 2
 
     def model_var_m2(self, el_rad, accuracy_m, iono_m, dual_frequency):
         """Broadcast orbit/clock + residual ionosphere + troposphere variance [m^2]."""

@@ -91,3 +91,47 @@ def test_missing_observation_type_and_malformed_epoch_are_named_and_counted(tmp_
     # the malformed epoch's satellite lines are not epochs: each is named as well; the other 4 epochs are read
     assert len(obs.epochs) == 4
     assert all(set(ep.signal) <= {"1C", "1X"} for ep in obs.epochs)
+
+
+def _same_epochs(a, b):
+    assert len(a.epochs) == len(b.epochs) and a.counts == b.counts and a.errors == b.errors
+    for x, y in zip(a.epochs, b.epochs):
+        for k in x.__dataclass_fields__:
+            u, v = getattr(x, k), getattr(y, k)
+            if isinstance(u, np.ndarray):
+                assert u.dtype == v.dtype and np.array_equal(u, v, equal_nan=True), k
+            else:
+                assert u == v and type(u) is type(v), k
+
+
+def test_code_and_cn0_reading_at_once_equals_the_line_by_line_one(tmp_path, monkeypatch):
+    """Codes and C/N0 only (single-point positioning) are read with every
+    satellite line's numbers parsed at once; the same epochs, channels,
+    values, types and counts as the line-by-line reading, on TLSE (every
+    system and code of the header, and the SPP plan); a file with a
+    malformed satellite line falls back to the line-by-line reading, which
+    names the line."""
+    from hyper_nav_gnss.formats import rinex_obs
+    path = rd.real_file(rd.TLSE_OBS)
+    text = read_text(path)
+    plain = tmp_path / "tlse.rnx"
+    plain.write_text(text)
+    spp_plan = {"G": ["1C", "2W", "2L", "5Q", "5X"], "E": ["1X", "7X", "1C", "7Q", "5Q", "5X"], "C": ["2I", "6I"]}
+    lines = text.splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("> 2024 01 01 12 00 30.0"))
+    bad = list(lines)
+    bad[k + 1] = bad[k + 1][:1] + "0x" + bad[k + 1][3:]                  # a satellite number that is not one
+    broken = tmp_path / "broken.rnx"
+    broken.write_text("\n".join(bad) + "\n")
+    fast = rinex_obs._read_code_and_cn0
+    for f, signals in ((plain, None), (plain, spp_plan), (broken, spp_plan)):
+        monkeypatch.setattr(rinex_obs, "_read_code_and_cn0", fast)
+        calls = []
+        monkeypatch.setattr(rinex_obs, "_read_code_and_cn0", lambda *a: calls.append(fast(*a)) or calls[-1])
+        a = read_rinex_obs(f, signals=signals, observables="S")
+        assert len(calls) == 1 and (calls[0] is None) == (f == broken)
+        monkeypatch.setattr(rinex_obs, "_read_code_and_cn0", lambda *a: None)
+        b = read_rinex_obs(f, signals=signals, observables="S")
+        _same_epochs(a, b)
+        assert len(a.epochs) == 900
+    assert any(f"line {k + 2} " in e for e in a.errors)

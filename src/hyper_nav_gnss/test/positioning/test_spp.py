@@ -173,3 +173,59 @@ def test_batched_satellite_states_equal_the_per_epoch_ones():
     full = solve(obs.epochs, store, replace(cfg, warm_tol_m=0.0, tol_m=1e-9))
     assert max(np.max(np.abs(a.pos_ecef_m - b.pos_ecef_m)) for a, b in zip(sols, full)) < 1e-6
     assert all(s.iterations == 2 for s in sols[1:])
+
+
+@pytest.mark.parametrize("plan", ["dual", "single"])
+def test_batched_solve_equals_the_epoch_by_epoch_one(tlse, plan, monkeypatch):
+    """The block solve (``solve(..., batched=True)``, the default: every
+    epoch's Gauss-Newton on arrays, the epochs it does not settle handed to
+    ``solve_epoch``) against the epoch-by-epoch one on the first 2 min of
+    TLSE, dual frequency and GPS L1 with Klobuchar, with a 60 m fault on G15
+    from epoch 30 to 40 (RAIM excludes it: those epochs and the ones after
+    them go through ``solve_epoch``): the same statuses, iterations, used
+    and masked satellites, exclusions and counters; positions, clocks and
+    residuals equal to 1e-6 m (summation order only: measured <= 2e-8 m)."""
+    epochs, store, iono, arp, C = tlse
+    signals = DF if plan == "dual" else {"G": ["1C"]}
+    cfg = spp.SppConfig(ReceiverModel(parse_plan(signals), klobuchar=iono))
+    faulty = []
+    for k, e in enumerate(epochs):
+        if 30 <= k < 40:
+            pr = np.array(e.pseudorange_m, float)
+            pr[[j for j, (s, p) in enumerate(zip(e.system, e.prn)) if s == "G" and int(p) == 15]] += 60.0
+            e = replace(e, pseudorange_m=pr)
+        faulty.append(e)
+    settled = []
+    batch_solve = spp._batch_solve
+    monkeypatch.setattr(spp, "_batch_solve", lambda *a: settled.append(batch_solve(*a)) or settled[-1])
+    for x0 in (None, np.r_[np.asarray(rd.TLSE_XYZ_M), 0.0]):
+        c_b, c_s = Counter(), Counter()
+        settled.clear()
+        a = spp.solve(faulty, store, cfg, c_b, x0=x0)
+        assert sum(s is not None for s in settled[0]) >= 100          # the block solve did settle most epochs
+        b = spp.solve(faulty, store, cfg, c_s, x0=x0, batched=False)
+        assert c_b == c_s
+        assert [s.status for s in a] == [s.status for s in b]
+        assert sum(s.status == "fault_excluded" for s in a) >= 5
+        assert [s.excluded and s.excluded[0][0] for s in a] == [s.excluded and s.excluded[0][0] for s in b]
+        assert [s.iterations for s in a] == [s.iterations for s in b]
+        assert all((s.used == t.used).all() and s.below_mask == t.below_mask and s.sat_ids == t.sat_ids
+                   for s, t in zip(a, b))
+        assert max(np.max(np.abs(s.pos_ecef_m - t.pos_ecef_m)) for s, t in zip(a, b)) < 1e-6
+        assert max(abs(s.clock_bias_m - t.clock_bias_m) for s, t in zip(a, b)) < 1e-6
+        assert max(np.max(np.abs(s.residual_m - t.residual_m)) for s, t in zip(a, b)) < 1e-6
+        assert max(np.max(np.abs(s.cov_ecef_m2 - t.cov_ecef_m2)) for s, t in zip(a, b)) < 1e-9
+
+
+def test_raim_threshold_table_is_scipys_quantile():
+    """The chi-square thresholds of the default P_fa kept as a table (no
+    scipy import at start-up) are the doubles scipy gives, for every dof of
+    the table; other P_fa and dof are still scipy's."""
+    from scipy.stats import chi2
+
+    from hyper_nav_gnss.positioning import raim
+    raim.threshold.cache_clear()
+    for dof in range(1, 201):
+        assert raim.threshold(dof, 1e-3) == float(chi2.isf(1e-3, dof))
+    assert raim.threshold(201, 1e-3) == float(chi2.isf(1e-3, 201))
+    assert raim.threshold(7, 1e-5) == float(chi2.isf(1e-5, 7))

@@ -87,10 +87,15 @@ def geodetic(sol) -> tuple[float, float, float]:
 
 
 def cov_enu(sol) -> np.ndarray:
-    """The position covariance in ENU at the solution [m^2]."""
-    lat, lon, _ = _llh_rad(sol)
-    C = earth.C_n_e(lat, lon)                      # ENU -> ECEF
-    return C.T @ np.asarray(sol.cov_ecef_m2, float) @ C
+    """The position covariance in ENU at the solution [m^2] (computed once
+    per solution, as :func:`_llh_rad`: the .pos, CSV and NMEA writers ask)."""
+    got = sol.__dict__.get("_cov_enu_cache")
+    if got is None or got[0] is not sol.cov_ecef_m2 or got[1] is not sol.pos_ecef_m:
+        lat, lon, _ = _llh_rad(sol)
+        C = earth.C_n_e(lat, lon)                      # ENU -> ECEF
+        got = (sol.cov_ecef_m2, sol.pos_ecef_m, C.T @ np.asarray(sol.cov_ecef_m2, float) @ C)
+        sol.__dict__["_cov_enu_cache"] = got
+    return got[2].copy()
 
 
 def _sq(v: float) -> float:
@@ -156,8 +161,8 @@ def write_csv(path, sols) -> int:
 
 def _nmea(body: str) -> str:
     cs = 0
-    for ch in body:
-        cs ^= ord(ch)
+    for ch in body.encode("ascii"):
+        cs ^= ch
     return f"${body}*{cs:02X}"
 
 

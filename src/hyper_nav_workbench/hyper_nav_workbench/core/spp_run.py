@@ -40,7 +40,6 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
-import yaml
 
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.positioning import spp as spp_core
@@ -51,8 +50,6 @@ from hyper_nav_gnss.positioning.weighting import ErrorModel
 from hyper_nav_gnss.formats.registry import RECEIVER_FORMATS, detect, receiver_format
 from hyper_nav_filter.core.params import ConfigError, suggest
 
-from hyper_nav_workbench.core.importer import gnss_raw
-from hyper_nav_workbench.core.importer.rtklib_pos import read_pos
 
 SPP_KNOWN = {"elevation_mask_deg", "p_fa", "weighting", "rtklib", "runs", "max_exclusions", "error_model"}
 REF_KNOWN = {"xyz_m", "antenna_height_m", "file", "quality", "tolerance_s"}
@@ -89,6 +86,7 @@ def _resolve(value, base: pathlib.Path, data_dir) -> str:
 def load_description(path, data_dir=None) -> dict:
     """The YAML description with its paths resolved (see the module docstring)."""
     path = pathlib.Path(path)
+    import yaml
     doc = yaml.safe_load(path.read_text())
     if not isinstance(doc, dict):
         raise ConfigError(f"{path}: expected a mapping")
@@ -128,6 +126,7 @@ def read_input(doc: dict, max_epochs: int | None = None) -> SppInput:
                     want.setdefault(sysc, set()).update(str(ch).split("+"))
         spec["signals"] = {k: sorted(v) for k, v in want.items()}
     t0 = time.perf_counter()
+    from hyper_nav_workbench.core.importer import gnss_raw
     imp = gnss_raw.read_gnss(preset, spec, doc.get("_base", "."))
     wall = time.perf_counter() - t0
     epochs = imp.epochs[:max_epochs] if max_epochs else imp.epochs
@@ -302,6 +301,7 @@ def reference_of(doc: dict) -> Reference | None:
         return Reference("point", xyz + earth.C_n_e(lat, lon) @ np.array([0.0, 0.0, h]),
                          note=f"fixed point {xyz.tolist()} + {h} m along the normal")
     if "file" in ref:
+        from hyper_nav_workbench.core.importer.rtklib_pos import read_pos
         pos = read_pos(ref["file"])
         q = ref.get("quality")
         if q is not None:
