@@ -49,7 +49,7 @@ def test_the_new_node_is_declared_to_loader_launcher_and_fusion(install):
     script = f"""
 import json, pathlib, tempfile
 from hyper_nav_filter.sources import load_plugins
-from hyper_nav_sim.core import aiding_nodes
+from hyper_nav_filter import aiding_nodes
 from hyper_nav_sim.core.scenario import ScenarioError, apply_overrides, fusion_inputs, load_scenario
 from hyper_nav_workbench.graph import Graph, executable
 sc = load_scenario("{install}/hyper_nav_fix_relay/{SCENARIO}")
