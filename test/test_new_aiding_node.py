@@ -14,35 +14,24 @@ No code of the workspace names it (``git grep fix_relay`` finds its
 package, this test and the documentation that points to them)."""
 import json
 import pathlib
-import shutil
-import subprocess
+import sys
 
 import pytest
 
 from hyper_nav_workbench.report import load_run
 
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from plugin_install import bash as _bash, build  # noqa: E402
+
 pytestmark = pytest.mark.graph
-REPO = pathlib.Path(__file__).resolve().parents[1]
-PACKAGE = REPO / "test" / "plugin_packages" / "hyper_nav_fix_relay"
+PACKAGE = "hyper_nav_fix_relay"
 SCENARIO = "share/hyper_nav_fix_relay/scenarios/fix_relay.yaml"
-
-
-def _bash(command: str, install: pathlib.Path | None = None, timeout: float = 600.0):
-    """``command`` in bash after ``source tools/env.sh`` (and the scratch install's setup)."""
-    extra = f" && source {install}/local_setup.bash" if install else ""
-    return subprocess.run(["bash", "-c", f"source tools/env.sh >/dev/null{extra} && {command}"], cwd=REPO,
-                          capture_output=True, text=True, timeout=timeout)
 
 
 @pytest.fixture(scope="module")
 def install(tmp_path_factory) -> pathlib.Path:
     """The package built by colcon into a scratch prefix (its own install space)."""
-    root = tmp_path_factory.mktemp("fix_relay")
-    shutil.copytree(PACKAGE, root / "src" / PACKAGE.name)
-    p = _bash(f"colcon --log-base {root}/log build --base-paths {root}/src --build-base {root}/build "
-              f"--install-base {root}/install --event-handlers console_cohesion- summary-")
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    return root / "install"
+    return build(PACKAGE, tmp_path_factory.mktemp("fix_relay"))
 
 
 def test_the_new_node_is_declared_to_loader_launcher_and_fusion(install):

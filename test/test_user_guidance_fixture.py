@@ -6,31 +6,24 @@ guidance_glide scenario with the user's node commanding the truth, records
 the bag, and returns the miss distance; the live flight equals the flight
 its recorded commands give offline, bit for bit."""
 import pathlib
-import shutil
-import subprocess
+import sys
 
 import pytest
 
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from plugin_install import bash, build  # noqa: E402
+
+
 pytestmark = [pytest.mark.graph, pytest.mark.slow]
-REPO = pathlib.Path(__file__).resolve().parents[1]
-PACKAGE = REPO / "test" / "plugin_packages" / "hyper_nav_user_guidance"
-
-
-def _bash(command: str, install: pathlib.Path | None = None, timeout: float = 900.0):
-    extra = f" && source {install}/local_setup.bash" if install else ""
-    return subprocess.run(["bash", "-c", f"source tools/env.sh >/dev/null{extra} && {command}"], cwd=REPO,
-                          capture_output=True, text=True, timeout=timeout)
+PACKAGE = "hyper_nav_user_guidance"
 
 
 def test_users_guidance_node_in_the_loop(tmp_path):
     root = tmp_path / "ws"
-    shutil.copytree(PACKAGE, root / "src" / PACKAGE.name)
-    p = _bash(f"colcon --log-base {root}/log build --base-paths {root}/src --build-base {root}/build "
-              f"--install-base {root}/install --event-handlers console_cohesion- summary-")
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    install = build(PACKAGE, root)
     # the user's own suite, in their own folder, with the plugin registered by the workspace's build
-    p = _bash(f"cd {root}/src/{PACKAGE.name} && python -m pytest -q -s -p no:cacheprovider test/test_my_guidance.py",
-              install=root / "install")
+    p = bash(f"cd {root}/src/{PACKAGE} && python -m pytest -q -s -p no:cacheprovider test/test_my_guidance.py",
+             install=install, timeout=900.0)
     assert p.returncode == 0, p.stdout[-5000:] + p.stderr[-3000:]
     assert "1 passed" in p.stdout
     line = next(x for x in p.stdout.splitlines() if "miss {'miss_m'" in x)

@@ -22,7 +22,7 @@ from hyper_nav_gnss.formats.rinex_file import RinexFormatError, read_rinex_text
 from hyper_nav_gnss.formats.rinex_nav import read_rinex2_nav, read_rinex_nav, read_rinex3_nav_records
 from hyper_nav_gnss.formats.rinex_obs import read_rinex_obs
 
-_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).with_name("_real_data.py"))
+_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).parents[1] / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rd)
 

@@ -18,7 +18,7 @@ from hyper_nav_gnss.orbits.ephemeris import GAL_CLOCK_E1E5A, GAL_CLOCK_E1E5B, sa
 from hyper_nav_gnss.formats.rinex_nav import read_rinex3_nav, read_rinex3_nav_records, write_rinex3_nav
 from hyper_nav_gnss.corrections.signal_delays import NoGroupDelay, group_delay_s
 
-_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).with_name("_real_data.py"))
+_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).parents[1] / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rd)
 

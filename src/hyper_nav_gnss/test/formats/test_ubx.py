@@ -14,7 +14,7 @@ import pytest
 
 from hyper_nav_gnss.formats.ubx import read_ubx
 
-_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).with_name("_real_data.py"))
+_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).parents[1] / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)         # pytest --import-mode=importlib: the helper by path
 _spec.loader.exec_module(rd)
 

@@ -10,7 +10,7 @@ import pytest
 from hyper_nav_gnss.orbits import ephemeris as ep
 from hyper_nav_gnss.formats import rinex_nav
 
-_spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
+_spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).parents[1] / "_data.py")
 data = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(data)
 

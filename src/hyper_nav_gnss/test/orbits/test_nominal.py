@@ -13,7 +13,7 @@ from hyper_nav_gnss.orbits import ephemeris as ep
 from hyper_nav_gnss.formats import rinex_nav
 from hyper_nav_gnss.orbits import nominal as nm
 
-_spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
+_spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).parents[1] / "_data.py")
 data = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(data)
 

@@ -26,7 +26,7 @@ from hyper_nav_gnss.corrections.receiver_model import (
 from hyper_nav_gnss.formats.rinex_nav import RINEX3_SYSTEMS, read_rinex3_nav_records
 from hyper_nav_gnss.formats.rinex_obs import read_rinex_obs
 
-_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).with_name("_real_data.py"))
+_spec = importlib.util.spec_from_file_location("hyper_nav_gnss_real_data", Path(__file__).parents[1] / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rd)
 

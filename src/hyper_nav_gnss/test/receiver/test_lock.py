@@ -14,7 +14,7 @@ from hyper_nav_sim.core.gnss import observables as ob
 from hyper_nav_gnss.orbits.constellation import synthetic_constellation, visible_satellites
 from hyper_nav_gnss.receiver.lock import LockConfig, LockModel, vehicle_doppler_hz
 
-_spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).with_name("_data.py"))
+_spec = importlib.util.spec_from_file_location("gnss_test_data", Path(__file__).parents[1] / "_data.py")
 data = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(data)
 

@@ -7,8 +7,8 @@ import pytest
 
 from hyper_nav_sim.core.gnss import broadcast_error
 
-# this file: <repo>/src/hyper_nav_gnss/test/<folder>/_data.py -> parents[4] = repo root
-REAL_DIR = Path(__file__).resolve().parents[4] / ".." / "shared" / "gnss-real"
+# this file: <repo>/src/hyper_nav_gnss/test/_data.py -> parents[3] = repo root
+REAL_DIR = Path(__file__).resolve().parents[3] / ".." / "shared" / "gnss-real"
 RINEX2 = "brdc1180.21n"
 RINEX3 = "BRDC00IGS_R_20230010000_01D_MN_GC-subset.rnx"
 SP3_2021 = "sp3_COD0MGXFIN_20211180000_G.csv"

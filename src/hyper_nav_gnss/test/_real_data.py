@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-# this file: <repo>/src/hyper_nav_gnss/test/<folder>/_real_data.py -> parents[4] = repo root
-SHARED = Path(os.environ.get("HYPER_NAV_SHARED") or Path(__file__).resolve().parents[4] / ".." / "shared")
+# this file: <repo>/src/hyper_nav_gnss/test/_real_data.py -> parents[3] = repo root
+SHARED = Path(os.environ.get("HYPER_NAV_SHARED") or Path(__file__).resolve().parents[3] / ".." / "shared")
 WALK_UBX = "walk_0827/gnss_1730.ubx"
 WALK_POS = "walk_0827/gnss_1730_sf.pos"
 WALK_IMU = "walk_0827/imu_1730_sf.csv"
