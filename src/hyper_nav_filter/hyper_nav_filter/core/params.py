@@ -100,7 +100,7 @@ class ParamSpec:
         raise ConfigError(f"{name}: unknown parameter type {t!r}")
 
     def _number(self, value, name: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if not _is_number(value):
             raise ConfigError(f"{name}: expected a number, got {value!r}")
         x = float(value)
         if math.isnan(x) and self.optional:
@@ -194,6 +194,22 @@ def positive(name, type_, default, description, **kw) -> ParamSpec:
 
 def nonneg(name, type_, default, description, **kw) -> ParamSpec:
     return ParamSpec(name, type_, default, description, lo=0.0, **kw)
+
+
+def number(name: str, value, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+           hi_open: bool = False, error: type[Exception] = ConfigError) -> float:
+    """One number of a block its own parser reads key by key (the flight,
+    the GNSS receiver, the world, the elastic lever arm, the virtual
+    receiver), checked by the same rule as a declared parameter
+    (``ParamSpec(name, FLOAT, ...)``: a finite number, ``lo``/``hi``
+    inclusive unless open); the error names the field and is raised as
+    ``error`` (the caller's own error type)."""
+    try:
+        return ParamSpec(name, FLOAT, None, "", lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open).check(value)
+    except ConfigError as exc:
+        if error is ConfigError:
+            raise
+        raise error(str(exc)) from None
 
 
 def check_all(specs, values: dict, where: str = "") -> dict:

@@ -34,7 +34,7 @@ import numpy as np
 
 from hyper_nav_filter.core.atmosphere import pressure_Pa as us76_pressure_pa   # US Standard Atmosphere 1976
 
-from hyper_nav_filter.core.params import unknown_field
+from hyper_nav_filter.core.params import number, unknown_field
 
 CONFIG_FIELDS = frozenset({"pressure_noise_rel_ppm", "pressure_noise_pa", "pressure_bias_pa", "max_alt_m"})
 
@@ -64,12 +64,7 @@ class BaroErrors:
         out = {}
         for k, default, nonneg in (("pressure_noise_rel_ppm", 0.0, True), ("pressure_noise_pa", 0.0, True),
                                    ("pressure_bias_pa", 0.0, False), ("max_alt_m", 60000.0, True)):
-            v = d.get(k, default)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)):
-                raise ValueError(f"{prefix}.{k}: expected a number, got {v!r}")
-            if nonneg and v < 0:
-                raise ValueError(f"{prefix}.{k}: must be >= 0, got {v}")
-            out[k] = float(v)
+            out[k] = number(f"{prefix}.{k}", d.get(k, default), 0.0 if nonneg else None, error=ValueError)
         return cls(out["pressure_noise_rel_ppm"] * 1e-6, out["pressure_noise_pa"], out["pressure_bias_pa"],
                    out["max_alt_m"])
 

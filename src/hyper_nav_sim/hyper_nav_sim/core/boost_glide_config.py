@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hyper_nav_filter.core.params import check_keys
+from hyper_nav_filter.core.params import check_keys, number
 
 _MISSING = object()
 
@@ -127,14 +127,7 @@ def _num(d, key, path, default=_MISSING, positive=False, nonneg=False):
         if default is _MISSING:
             raise ValueError(f"{path}{key}: missing required field")
         return default
-    v = d[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-        raise ValueError(f"{path}{key}: expected a number, got {v!r}")
-    if positive and not v > 0:
-        raise ValueError(f"{path}{key}: must be > 0, got {v!r}")
-    if nonneg and v < 0:
-        raise ValueError(f"{path}{key}: must be >= 0, got {v!r}")
-    return float(v)
+    return number(f"{path}{key}", d[key], 0.0 if positive or nonneg else None, lo_open=positive, error=ValueError)
 
 
 def _check_keys(d, allowed, path):

@@ -50,7 +50,7 @@ import numpy as np
 
 from hyper_nav_filter.core import units
 
-from hyper_nav_filter.core.params import unknown_field
+from hyper_nav_filter.core.params import number, unknown_field
 
 ARCSEC = units.DEG / 3600.0
 FLICKER_FLOOR = float(np.sqrt(2.0 * np.log(2.0) / np.pi))   # 0.6643, IEEE 952
@@ -205,12 +205,7 @@ def _is_num(x):
 
 def _parse(name, value, kind):
     if kind.startswith("num"):
-        if not _is_num(value):
-            raise ValueError(f"{name}: expected a number, got {value!r}")
-        v = float(value)
-        if (kind == "num>=0" and v < 0) or (kind == "num>0" and v <= 0):
-            raise ValueError(f"{name}: must be {'>=' if kind == 'num>=0' else '>'} 0, got {v}")
-        return v
+        return number(name, value, None if kind == "num" else 0.0, lo_open=kind == "num>0", error=ValueError)
     if kind.startswith("vec3"):
         if _is_num(value):
             v = np.full(3, float(value))

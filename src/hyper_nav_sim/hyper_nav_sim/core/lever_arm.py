@@ -87,7 +87,7 @@ from hyper_nav_filter.core.elastic_lever_arm import (TABLE2_FREQ_RADPS, TABLE4_F
 from hyper_nav_filter.core.elastic_lever_arm import lever_arm_dvel as _lever_arm_dvel
 from hyper_nav_filter.core.elastic_lever_arm import zoh_matrices as _zoh_matrices
 
-from hyper_nav_filter.core.params import unknown_field
+from hyper_nav_filter.core.params import number, unknown_field
 
 
 _DEFAULTS = {
@@ -111,13 +111,7 @@ _DEFAULTS = {
 
 
 def _num(name, v, positive=False, nonneg=False):
-    if not (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and np.isfinite(v)):
-        raise ValueError(f"{name}: expected a number, got {v!r}")
-    if positive and v <= 0:
-        raise ValueError(f"{name}: must be > 0, got {v}")
-    if nonneg and v < 0:
-        raise ValueError(f"{name}: must be >= 0, got {v}")
-    return float(v)
+    return number(name, v, 0.0 if positive or nonneg else None, lo_open=positive, error=ValueError)
 
 
 def _vec3(name, v, positive=False, nonneg=False):

@@ -42,7 +42,7 @@ import numpy as np
 from hyper_nav_gnss import earth
 
 from hyper_nav_filter.core import wmm
-from hyper_nav_filter.core.params import unknown_field
+from hyper_nav_filter.core.params import number, unknown_field
 MAP_ERROR_MODELS = ("correlated", "white_uniform")
 
 
@@ -114,12 +114,7 @@ class MagnetometerErrors:
                 raise ValueError(unknown_field(f"{prefix}.", k, known | {"rate_hz", "epoch_decimal_year", "lever_arm_b_m"}))
 
         def num(k, default, positive=False):
-            v = d.get(k, default)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)):
-                raise ValueError(f"{prefix}.{k}: expected a number, got {v!r}")
-            if v < 0 or (positive and v == 0):
-                raise ValueError(f"{prefix}.{k}: must be {'>' if positive else '>='} 0, got {v}")
-            return v
+            return number(f"{prefix}.{k}", d.get(k, default), 0.0, lo_open=positive, error=ValueError)
 
         def arr(k, default, shape):
             v = d.get(k, default)

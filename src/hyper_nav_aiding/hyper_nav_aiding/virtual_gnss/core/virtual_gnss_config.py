@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-import numpy as np
+from hyper_nav_filter.core.params import number
 
 POSITION_SOURCES = ("fused", "alpha_beta")
 
@@ -83,10 +83,4 @@ class VirtualGnssConfig:
 
 
 def _num(prefix, name, v, positive=False, lo=None, hi=None) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v):
-        raise VirtualGnssConfigError(f"{prefix}.{name}: expected a number, got {v!r}")
-    if positive and v <= 0:
-        raise VirtualGnssConfigError(f"{prefix}.{name}: must be > 0, got {v}")
-    if (lo is not None and v < lo) or (hi is not None and v > hi):
-        raise VirtualGnssConfigError(f"{prefix}.{name}: {v} outside [{lo}, {hi}]")
-    return float(v)
+    return number(f"{prefix}.{name}", v, 0.0 if positive else lo, hi, lo_open=positive, error=VirtualGnssConfigError)

@@ -39,6 +39,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hyper_nav_filter.core.params import number
+
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.orbits.ephemeris import C_MPS, satellite_position_ecef, system_time_s
 from hyper_nav_gnss.geometry import elevation_azimuth
@@ -63,14 +65,8 @@ _LOCK_FIELDS = {"doppler_limit_hz", "doppler_reference", "loop_bandwidth_hz", "p
 
 
 def _num(name, v, lo=None, hi=None, lo_open=False):
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v):
-        raise ValueError(f"gnss.{name}: expected a finite number, got {v!r}")
-    v = float(v)
-    if lo is not None and (v < lo or (lo_open and v == lo)):
-        raise ValueError(f"gnss.{name}: {v} must be {'>' if lo_open else '>='} {lo}")
-    if hi is not None and v > hi:
-        raise ValueError(f"gnss.{name}: {v} must be <= {hi}")
-    return v
+    """A field of the ``gnss`` block (``params.number``: the rule of every declared number)."""
+    return number(f"gnss.{name}", v, lo, hi, lo_open=lo_open, error=ValueError)
 
 
 def _windows(name, v):
