@@ -10,3 +10,6 @@ cores (``core/``, numpy/scipy, no rclpy). The nodes run without the simulator in
 simulated flights (``virtual_gnss/offline.py``, ``lever_arm/sim_windows.py``, ``geomag/mc_feed.py``) import it
 when used. The paper reproductions that use these cores are in the ``hyper_nav_repro`` package.
 """
+from hyper_nav_filter.moved import install as _install_moved
+
+_install_moved()          # an old module name (before the packages were arranged by role) says where it went
