@@ -17,7 +17,7 @@ from hyper_nav_workbench.testing import play_into_fusion
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location(
-    "hyper_nav_gnss_real_data", REPO / "src" / "hyper_nav_gnss" / "test" / "formats" / "_real_data.py")
+    "hyper_nav_gnss_real_data", REPO / "src" / "hyper_nav_gnss" / "test" / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rd)
 

@@ -18,8 +18,7 @@ from hyper_nav_workbench import import_data
 from hyper_nav_workbench.core.bag import deserialize, read_bag
 
 _spec = importlib.util.spec_from_file_location(
-    "hyper_nav_gnss_real_data", Path(__file__).resolve().parents[4] / "hyper_nav_gnss" / "test" / "formats"
-    / "_real_data.py")
+    "hyper_nav_gnss_real_data", Path(__file__).resolve().parents[4] / "hyper_nav_gnss" / "test" / "_real_data.py")
 rd = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rd)
 
