@@ -8,7 +8,8 @@
 #     graph run is mostly waiting (discovery, pacing, drains: about 0.6 of a
 #     core), so two at once nearly halve the lane (measured on a fresh clone:
 #     one worker 996-1145 s, two 479 s; 9.0 CPU-min either way);
-#   * beside them, the unit tests on two pytest-xdist workers at nice 19: they
+#   * beside them, the unit tests on two pytest-xdist workers at nice 19 (raised to
+#     normal priority when the graph lane ends, so that other work cannot starve them): they
 #     take the CPU the graphs leave idle (about 6 CPU-min).
 # Each lane and each worker has its own ROS domain (a block of six derived
 # from this shell's pid), so nothing crosses between lanes or with another
@@ -32,6 +33,14 @@ graph_xdist=()
 echo "[make test] node-graph tests on $graph_workers worker(s); unit tests beside them (nice 19, 2 workers; output below when done)"
 ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph "${graph_xdist[@]}" --cpu-top 25 --durations 15 "$@"
 g=$?
+# The graph lane is done, so the unit lane no longer has to yield to it: raised back to normal priority (root, or
+# where RLIMIT_NICE allows it), else on a machine busy with other work it starves (at nice 19 beside two busy
+# processes at nice 0 it got about 1 % of a core: 45 CPU-s in 40 min, fresh clone of e68fa9c).
+raise_lane() { renice -n 0 -p "$1" >/dev/null 2>&1 || return 1; local c; for c in $(pgrep -P "$1"); do raise_lane "$c"; done; }
+if kill -0 "$unit_pid" 2>/dev/null; then
+    raise_lane "$unit_pid" && echo "[make test] graph lane done: unit lane raised to normal priority" \
+        || echo "[make test] graph lane done: the unit lane's priority could not be raised (not permitted); it stays at nice 19"
+fi
 wait $unit_pid
 u=$?
 echo
