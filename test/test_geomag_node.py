@@ -60,7 +60,7 @@ def _last_status(msgs) -> dict:
 
 @pytest.mark.graph
 def test_geomag_node_fixes_and_bad_input_over_dds(tmp_path):
-    domain_id = int(os.environ.get("ROS_DOMAIN_ID", "0")) or 77
+    domain_id = int(os.environ["ROS_DOMAIN_ID"])         # this pytest process's own (conftest.py)
     gmap = GeomagMap.build(SPEC)
     map_file = gmap.save(tmp_path / "map.npz")
     # nav_reference_lag_s 0: each sample against the solution of its own stamp (interpolated), which
@@ -189,7 +189,7 @@ def test_geomag_node_refuses_a_map_of_another_epoch_at_start(tmp_path):
                    lon_min_deg=140.5, lon_max_deg=143.5, grid_step_deg=0.05, refine_factor=40)
     cfg = GeomagConfig.from_dict({"map": {k: getattr(spec, k) for k in spec.__dataclass_fields__},
                                   "map_file": str(tmp_path / "never_read.npz")})
-    domain_id = (int(os.environ.get("ROS_DOMAIN_ID", "0")) or 77) + 1
+    domain_id = int(os.environ["ROS_DOMAIN_ID"])         # this pytest process's own (conftest.py)
     proc = _start(tmp_path, "moved", cfg, domain_id, 2027.0)
     try:
         rc = proc.wait(timeout=60)

@@ -107,16 +107,20 @@ def parse_cores(text: str) -> set[int]:
     return out
 
 
-def freeze(pid: int, seconds: float) -> float:
-    """SIGSTOP ``pid``, wait ``seconds`` of wall time, SIGCONT it. Returns the
-    wall time it was stopped (s); a process that exited meanwhile is not an error."""
+def freeze(pid: int, seconds: float, release: threading.Event | None = None) -> float:
+    """SIGSTOP ``pid``, wait ``seconds`` of wall time (or until ``release`` is
+    set, if sooner), SIGCONT it. Returns the wall time it was stopped (s); a
+    process that exited meanwhile is not an error."""
     t0 = time.monotonic()
     try:
         os.kill(pid, signal.SIGSTOP)
     except ProcessLookupError:
         return 0.0
     try:
-        time.sleep(seconds)
+        if release is None:
+            time.sleep(seconds)
+        else:
+            release.wait(seconds)
     finally:
         try:
             os.kill(pid, signal.SIGCONT)

@@ -45,23 +45,25 @@ def test_busy_processes_run_at_nice_0_and_use_cpu_until_stopped():
 
 
 def test_freeze_stops_a_process_then_resumes_it():
+    """Ordered by events, not by sleeps (a busy machine may hold any thread
+    for a second): the freeze lasts until the test has seen the process
+    stopped and using no CPU, then it is released."""
+    import threading
     p = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
-        time.sleep(0.3)
-        import threading
-        seen = {}
-
-        def look():
-            time.sleep(0.3)
-            seen["state"] = _state(p.pid)
-            seen["cpu0"] = _cpu_s(p.pid)
-            time.sleep(0.5)
-            seen["cpu1"] = _cpu_s(p.pid)
-        t = threading.Thread(target=look)
+        release, out = threading.Event(), {}
+        t = threading.Thread(target=lambda: out.setdefault("held", freeze(p.pid, 600.0, release)))
         t.start()
-        assert freeze(p.pid, 1.2) >= 1.2
+        t_end = time.monotonic() + 60.0
+        while _state(p.pid) != "T" and time.monotonic() < t_end:
+            time.sleep(0.01)
+        cpu0 = _cpu_s(p.pid)
+        time.sleep(0.5)
+        state, cpu1 = _state(p.pid), _cpu_s(p.pid)
+        release.set()
         t.join()
-        assert seen["state"] == "T" and seen["cpu1"] == seen["cpu0"]     # stopped: no CPU at all
+        assert state == "T" and cpu1 == cpu0                            # stopped: no CPU at all
+        assert 0.5 <= out["held"] < 600.0                               # released, not timed out
         assert _state(p.pid) in ("R", "S")                               # running again
         with Throttle(p.pid, 0.2):
             time.sleep(0.3)

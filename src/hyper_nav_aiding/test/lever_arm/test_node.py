@@ -2,6 +2,7 @@
 000 elastic flight (IMU, GNSS, fused nav/state from the core), it fires,
 runs a re-estimation that times out, publishes no model update, keeps its
 model and says so on /diagnostics (WARN); a NaN nav/state is counted."""
+import os
 import time
 
 import numpy as np
@@ -76,7 +77,9 @@ def test_a_timed_out_reestimation_keeps_the_model_and_says_so():
         "state_period_s": 0.5, "method": "cmaes", "budget_passes": 100000, "timeout_s": 0.5,
         "worker_grace_s": 1.0, "diagnostics_period_s": 0.2}.items()]
     ctx = rclpy.context.Context()
-    rclpy.init(context=ctx, domain_id=77)
+    # this pytest process's own domain (conftest.py): a fixed one was once shared with a graph-lane worker
+    # (its own subscriber made the count 2)
+    rclpy.init(context=ctx, domain_id=int(os.environ["ROS_DOMAIN_ID"]))
     node = None
     try:
         node = LeverArmLearningNode(context=ctx, parameter_overrides=params)
