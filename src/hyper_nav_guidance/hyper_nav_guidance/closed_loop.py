@@ -36,6 +36,7 @@ import numpy as np
 from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
+from hyper_nav_filter.core.stream_runner import StreamRunner
 from hyper_nav_sim.core.boost_glide_config import parse_flight
 from hyper_nav_sim.core.commanded_flight import CommandedFlight, CommandLoop
 from hyper_nav_sim.core.gnss_model import simulate_fixes
@@ -145,7 +146,8 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
     t_imu = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
     t_gnss = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
     errors, rng_imu, rng_gnss, st = ImuErrors.from_scenario(sc), sc.rng("imu"), sc.rng("gnss"), ImuErrorState()
-    commands, j, h = [], 0, flight.step_s
+    commands, h = [], flight.step_s
+    run = StreamRunner(eng, [_GnssFixes(flight, sc, t_gnss, rng_gnss, gnss_outages)])
     last_nav = None
 
     def act(sols):
@@ -174,9 +176,7 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
         dth_b, dv_b = corrupt_increments(dth_b, dv_b, dt, errors, rng_imu, st)
         for i in range(k1 - k):
             t = t_imu[k + i]
-            _imu_epoch(eng, t, dth_b[i], dv_b[i])
-            j = _gnss_until(eng, flight, sc, t_gnss, j, t, rng_gnss, gnss_outages)
-            released = eng.release()
+            released = run.step(t, dth_b[i], dv_b[i])
             if stream == "delayed":
                 act(released)
             elif eng.current is not None and abs(eng.current.t_s - t) <= 1e-9:
@@ -192,8 +192,17 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
     return _finish(cfg, flight, loop, commands, nav_err)
 
 
-def _imu_epoch(eng, t, dth, dv):
-    eng.add_imu(t, dth, dv)
+class _GnssFixes:
+    """The GNSS fixes as a feed of the engine's runner: drawn for every epoch
+    up to each IMU sample (the flight is flown as it goes), dropped in the outages."""
+
+    def __init__(self, flight, sc, t_gnss, rng_gnss, gnss_outages):
+        self.args, self.j = (flight, sc, t_gnss), 0
+        self.rng, self.outages = rng_gnss, gnss_outages
+
+    def until(self, eng, t):
+        flight, sc, t_gnss = self.args
+        self.j = _gnss_until(eng, flight, sc, t_gnss, self.j, t, self.rng, self.outages)
 
 
 def _gnss_until(eng, flight, sc, t_gnss, j, t, rng_gnss, gnss_outages):

@@ -9,6 +9,7 @@ import time
 import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
+from hyper_nav_filter.core.stream_runner import Stamped, StreamRunner
 from hyper_nav_sim.core import simulate
 from hyper_nav_workbench.core import scoring
 
@@ -27,16 +28,8 @@ def fly(sc, cfg, decimate: int = 1, duration_s: float | None = None, release_eve
     dv = imu.dvel_b_mps[:n].reshape(-1, decimate, 3).sum(axis=1)
     meas = simulate.gnss_measurements(sc, traj)
     eng = FusionEngine(cfg, sc.filter_initial_state())
-    sols, j = [], 0
     t0 = time.perf_counter()
-    for k in range(len(t)):
-        eng.add_imu(t[k], dth[k], dv[k])
-        while j < len(meas) and meas[j].t_s <= t[k] + 1e-9:
-            eng.add_measurement(meas[j])
-            j += 1
-        if k % release_every == release_every - 1:
-            sols += eng.release()
-    sols += eng.release(final=True)
+    sols = StreamRunner(eng, [Stamped(meas)], release_every).run(t, dth, dv)
     return sols, eng, traj, time.perf_counter() - t0
 
 
@@ -60,19 +53,13 @@ def fly_current(sc, cfg, delivery_delay_s: float = 0.0, duration_s: float | None
     meas = [m for m in simulate.gnss_measurements(sc, traj)
             if outage is None or not (outage[0] <= m.t_s < outage[1])]
     eng = FusionEngine(cfg, sc.filter_initial_state())
-    cur, sols, wall, j = [], [], np.empty(n), 0
-    for k in range(n):
-        t = float(imu.t_s[k])
-        while j < len(meas) and meas[j].t_s + delivery_delay_s <= t - 1e-9:
-            eng.add_measurement(meas[j])
-            j += 1
-        t0 = time.perf_counter()
-        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
-        wall[k] = time.perf_counter() - t0
+    cur, wall = [], np.empty(n)
+    run = StreamRunner(eng, [Stamped(meas, delivery_delay_s)])
+
+    def current(k, t):
         if k % keep_every == 0:
             cur.append(eng.current)
-        sols += eng.release()
-    sols += eng.release(final=True)
+    sols = run.run(imu.t_s, imu.dtheta_b_rad, imu.dvel_b_mps, n, on_sample=current, imu_wall_s=wall)
     return cur, sols, eng, traj, wall
 
 

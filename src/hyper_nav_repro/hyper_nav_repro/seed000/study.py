@@ -18,6 +18,7 @@ import numpy as np
 
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.model_update import ModelUpdate
+from hyper_nav_filter.core.stream_runner import Stamped, StreamRunner
 from hyper_nav_workbench.offline_fly import per_axis_errors
 
 from hyper_nav_aiding.lever_arm.core.replay import FREQ_FIELD
@@ -31,17 +32,10 @@ def fly(flight: SimulatedFlight, cfg, updates=(), duration_s: float | None = Non
     eng = FusionEngine(cfg, flight.scenario.filter_initial_state())
     for t_u, freqs in updates:
         eng.add_model_update(ModelUpdate.from_arrays(t_u, MODEL_NAME, [FREQ_FIELD] * 3, freqs, "reproduce_seed000"))
-    imu, j, sols = flight.imu, 0, []
+    imu = flight.imu
     n = len(imu.t_s) if duration_s is None else int(np.searchsorted(imu.t_s, duration_s + 1e-9))
-    for k in range(n):
-        t = imu.t_s[k]
-        eng.add_imu(t, imu.dtheta_b_rad[k], imu.dvel_b_mps[k])
-        while j < len(flight.gnss) and flight.gnss[j].t_s <= t + 1e-9:
-            eng.add_measurement(flight.gnss[j])
-            j += 1
-        if k % release_every == release_every - 1:
-            sols += eng.release()
-    return sols + eng.release(final=True)
+    return StreamRunner(eng, [Stamped(flight.gnss)], release_every).run(imu.t_s, imu.dtheta_b_rad,
+                                                                        imu.dvel_b_mps, n)
 
 
 def navigation_errors(sc, lc, run: dict, log, nav_duration_s: float | None = None) -> dict:

@@ -75,6 +75,7 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
     """One Monte Carlo run of the scenario ``data`` (a validated scenario
     mapping, so a remote worker needs no file); see the module docstring."""
     from hyper_nav_filter.core.fusion import FusionEngine
+    from hyper_nav_filter.core.stream_runner import StreamRunner
 
     from hyper_nav_workbench.core import mc_sources
     from hyper_nav_sim.core import simulate
@@ -91,21 +92,15 @@ def run_one(data: dict, k: int, draws=DRAWS, grid_hz: float = 1.0) -> dict:
         feed = mc_sources.Feed(sc, traj, cfg)       # the declared sources: loose or tight GNSS, barometer
     eng = FusionEngine(cfg, sc.filter_initial_state())
     lay = cfg.layout
-    sols = []
-    nis_rows, next_grid = [], 1.0 / grid_hz
+    nis_rows, next_grid = [], [1.0 / grid_hz]
     last = {}
-    for i in range(len(imu.t_s)):
-        eng.add_imu(imu.t_s[i], imu.dtheta_b_rad[i], imu.dvel_b_mps[i])
-        feed.until(eng, imu.t_s[i])
-        released = eng.release()
-        feed.released(eng, released)
-        sols += [s for s in released if _on_grid(s.t_s, grid_hz)]
-        if imu.t_s[i] >= next_grid - 1e-9:
-            nis_rows.append((next_grid, _nis_deltas(eng.kf.stats, last)))
-            next_grid += 1.0 / grid_hz
-    released = eng.release(final=True)
-    feed.released(eng, released)
-    sols += [s for s in released if _on_grid(s.t_s, grid_hz)]
+
+    def nis_grid(i, t):
+        if t >= next_grid[0] - 1e-9:
+            nis_rows.append((next_grid[0], _nis_deltas(eng.kf.stats, last)))
+            next_grid[0] += 1.0 / grid_hz
+    run = StreamRunner(eng, [feed], keep=lambda s: _on_grid(s.t_s, grid_hz))
+    sols = run.run(imu.t_s, imu.dtheta_b_rad, imu.dvel_b_mps, on_sample=nis_grid)
     e = scoring.solution_errors(sols, traj)
     out = {"k": k, "seed": over.get("seed", data["seed"]), "draws": over, "t_s": e["t"],
            "err": {"pos": e["pos_enu_m"], "vel": e["vel_enu_mps"], "att": np.deg2rad(e["att_enu_deg"])},
