@@ -19,6 +19,7 @@ Shared machine: 2 cores, other engineers' tests running; report what it
 says about that.
 
     python benchmarks/current_latency.py [--duration 20] [--cases loose200,loose1000,tight200,tight1000]
+        [--executors single,events]
 """
 from __future__ import annotations
 
@@ -63,7 +64,7 @@ def cpu_s(pid: int) -> float:
     return total
 
 
-def measure(bag: pathlib.Path, domain: int) -> dict:
+def measure(bag: pathlib.Path, domain: int, executor: str = "single") -> dict:
     import rclpy
     from rclpy.serialization import deserialize_message
 
@@ -85,6 +86,7 @@ def measure(bag: pathlib.Path, domain: int) -> dict:
             inputs["/" + i.topic.lstrip("/")] = (i.msg_type, i.latched)
     # the node's parameters for every source input are reliable (the bench's publishers are)
     params.update({k: "reliable" for k in params if k.endswith(".qos")})
+    params["executor"] = executor
     pfile = pathlib.Path(tempfile.mkdtemp()) / "fusion.yaml"
     pfile.write_text(yaml.dump({"fusion": {"ros__parameters": params}}, Dumper=_NoAliasDumper))
     recs = [(r.topic, r.msgtype, r.raw) for r in read_bag(bag) if r.topic in inputs]
@@ -217,6 +219,9 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, default=20.0)
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")))
+    ap.add_argument("--executors", default="single",
+                    help="the fusion node's executor(s), comma-separated, each measured on the same recording: "
+                         "single, events")
     ap.add_argument("--out", default="results/current_latency.json")
     a = ap.parse_args(argv)
     results = {}
@@ -227,15 +232,17 @@ def main(argv=None):
             ip = in_process(bag)
             print(f"{case:10s} in process (router + engine + predictor + message conversion, no DDS): median "
                   f"{ip['median_ms']:.3f} ms, p99 {ip['p99_ms']:.3f} ms, max {ip['max_ms']:.3f} ms", flush=True)
-            r = measure(bag, a.domain)
-            r["in_process"] = ip
-            with open("/proc/loadavg") as fh:
-                r["loadavg_1min"] = float(fh.read().split()[0])
-            results[case] = r
-            print(f"{case:10s} {scenario} IMU {hz:g} Hz: latency median {r['median_ms']:.3f} ms, p99 {r['p99_ms']:.3f} ms, "
-                  f"max {r['max_ms']:.3f} ms; states {r['states_received']} of {r['imu_published']} IMU samples; "
-                  f"fusion node CPU {100 * r['fusion_cpu_share']:.0f} % of one core (machine load average "
-                  f"{r['loadavg_1min']:.1f} on 2 cores)", flush=True)
+            for ex in a.executors.split(","):
+                r = measure(bag, a.domain, ex)
+                r["in_process"] = ip
+                r["executor"] = ex
+                with open("/proc/loadavg") as fh:
+                    r["loadavg_1min"] = float(fh.read().split()[0])
+                results[case if ex == "single" else f"{case}_{ex}"] = r
+                print(f"{case:10s} {scenario} IMU {hz:g} Hz, executor {ex}: latency median {r['median_ms']:.3f} ms, "
+                      f"p99 {r['p99_ms']:.3f} ms, max {r['max_ms']:.3f} ms; states {r['states_received']} of "
+                      f"{r['imu_published']} IMU samples; fusion node CPU {100 * r['fusion_cpu_share']:.0f} % of one "
+                      f"core (machine load average {r['loadavg_1min']:.1f} on 2 cores)", flush=True)
     out = pathlib.Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"args": vars(a), "results": results,

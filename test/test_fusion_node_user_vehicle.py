@@ -85,6 +85,7 @@ def test_no_parameters_starts_and_waits_for_data():
     (["-p", "filter.output_delay_s:=-1.0"], "filter.output_delay_s"),
     (["-p", "sources.imu.type:=imuu"], "sources.imu.type"),
     (["-p", "sources.gnss_fix.delay_s:=2.0"], "sources.gnss_fix.delay_s"),
+    (["-p", "executor:=event"], "executor"),
 ])
 def test_a_wrong_parameter_is_one_line_naming_it(args, name):
     proc = _start(["--ros-args", "--params-file", str(PARAMS / "loosely_coupled.yaml"), *args], isolated_domain_id())
@@ -98,12 +99,15 @@ def test_a_wrong_parameter_is_one_line_naming_it(args, name):
     assert len(lines) == 1 and name in lines[0], out
 
 
-def test_params_file_node_gives_one_current_time_state_per_imu_sample():
+@pytest.mark.parametrize("executor", ["single", "events"])
+def test_params_file_node_gives_one_current_time_state_per_imu_sample(executor):
+    """In either executor (``-p executor:=events``: rclpy's EventsExecutor)."""
     domain = isolated_domain_id()
     t0 = time.time()
     # (the file's IMU QoS is sensor_data, best effort, as drivers publish; reliable here: nothing may be lost)
     proc = _start(["--ros-args", "--params-file", str(PARAMS / "loosely_coupled.yaml"), "-p", "sources.imu.qos:=reliable",
-                   "-p", f"init.lat_deg:={LAT_DEG}", "-p", f"init.lon_deg:={LON_DEG}", "-p", f"init.alt_m:={ALT_M}"],
+                   "-p", f"init.lat_deg:={LAT_DEG}", "-p", f"init.lon_deg:={LON_DEG}", "-p", f"init.alt_m:={ALT_M}",
+                   "-p", f"executor:={executor}"],
                   domain)
     topics = {"nav/odom": Odometry, "nav/state": NavState, "/tf": TFMessage, "nav/delayed/state": NavState}
     try:
