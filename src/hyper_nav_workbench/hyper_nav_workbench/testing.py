@@ -99,8 +99,13 @@ class TopicCollector:
 
 
 def isolated_domain_id() -> int:
-    """A ROS domain id for one test, away from the default 0."""
-    return 100 + os.getpid() % 100
+    """A ROS domain id for one test, away from the default 0: this process's
+    own ``ROS_DOMAIN_ID`` when set (the project's conftest.py gives each test
+    lane and xdist worker its own, and a worker runs one test at a time),
+    else 100 + pid % 100 (a pid-derived id could land on another lane's
+    domain under ``make test``)."""
+    own = int(os.environ.get("ROS_DOMAIN_ID", "0") or 0)
+    return own if own else 100 + os.getpid() % 100
 
 
 def play_into_fusion(scenario: str, bag, topics, count: int, rate: float = 1.0, player_timeout_s: float = 180.0,
