@@ -11,6 +11,12 @@ their process times). Writes ``lincov_mc.json`` and ``lincov_mc.png``.
 
     study_lincov_mc --scenario default --runs 200 --workers 2
     study_lincov_mc --scenario default --blackout 120:240 --runs 200 --split
+    study_lincov_mc --scenario default --trajectory-of guidance_glide --set duration_s=60
+
+``--trajectory-of NAME`` flies a user-style trajectory: NAME's truth written
+as a trajectory file (``trajectory_file.write_csv``, 10 Hz by default, as a
+6-DOF tool would hand it over) and flown as a user's file
+(``trajectory_file``) with the sensors and filter of ``--scenario``.
 """
 from __future__ import annotations
 
@@ -60,6 +66,28 @@ def summary(cmp) -> dict:
                 "share_within_band": c["share_within_band"]} for b, c in cmp["blocks"].items()}
 
 
+def user_trajectory(base: str, of: str, rate_hz: float, out: pathlib.Path) -> pathlib.Path:
+    """Scenario ``base`` flying scenario ``of``'s truth from a trajectory
+    file written at ``rate_hz`` (absolute path: Monte Carlo workers read it
+    from a scenario of their own); returns the scenario file's path."""
+    import yaml
+
+    from hyper_nav_sim.core.scenario import load_scenario
+    from hyper_nav_sim.core.trajectory_file import write_csv
+    src = load_scenario(of)
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = (out / f"{src.name}_trajectory.csv").resolve()
+    write_csv(csv_path, src.trajectory(), np.arange(0.0, float(src["duration_s"]) + 1e-9, 1.0 / rate_hz))
+    base_data = load_scenario(base).data
+    data = {k: v for k, v in base_data.items() if k not in ("start", "maneuvers", "flight", "trajectory_file")}
+    data["name"] = f"{base_data['name']}_on_{src.name}_file"
+    data["duration_s"] = min(float(base_data["duration_s"]), float(src["duration_s"]))
+    data["trajectory_file"] = {"path": str(csv_path)}
+    path = out / f"{data['name']}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenario", default="default")
@@ -69,12 +97,18 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=0, help="dask worker processes (0: in this process)")
     ap.add_argument("--split", action="store_true", help="also one draw kind at a time (initial, biases, noise)")
     ap.add_argument("--skip-s", type=float, default=1.0, help="epochs before this are not scored")
+    ap.add_argument("--trajectory-of", metavar="NAME",
+                    help="fly scenario NAME's truth as a user's trajectory file (module doc)")
+    ap.add_argument("--trajectory-hz", type=float, default=10.0, help="the file's rate (Hz)")
     ap.add_argument("--out", default="results/lincov_mc")
     a = ap.parse_args(argv)
     settings = list(a.set)
     if a.blackout:
         settings.append("gnss.outages_s=" + json.dumps([list(w) for w in a.blackout]))
-    sc = load_with_settings(a.scenario, settings)
+    scenario = a.scenario
+    if a.trajectory_of:
+        scenario = str(user_trajectory(a.scenario, a.trajectory_of, a.trajectory_hz, pathlib.Path(a.out)))
+    sc = load_with_settings(scenario, settings)
     out = pathlib.Path(a.out) / (sc.name + ("_blackout" if a.blackout else ""))
     out.mkdir(parents=True, exist_ok=True)
     res = lincov_setup.build(sc).run(record_every=1)
