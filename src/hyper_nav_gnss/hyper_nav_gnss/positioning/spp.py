@@ -277,8 +277,64 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     return sol
 
 
+def precise_states(obs_list, states, precise, counters: Counter):
+    """The satellite states of the systems ``precise`` (an
+    :class:`~hyper_nav_gnss.orbits.precise.PreciseEphemeris`) covers taken from
+    it instead of the broadcast records, at the same transmit time t_rx - P/c -
+    dt_sv (the clock first at t_rx - P/c, then every state at the transmit
+    time, as :func:`states_batch`). BeiDou: precise clocks refer to the B1I/B3I
+    ionosphere-free pair (IGS MGEX), the broadcast clock, which the group
+    delays already applied to ``pr_m`` assume, to B3I: dt_B3I = dt_IF +
+    f1^2/(f1^2 - f3^2) TGD1. A satellite the product covers (its system) but
+    cannot serve at that time (not listed, outside the span, a missing
+    position or clock) is removed from the epoch and counted under its reason
+    (``precise_*``); systems the product does not hold keep their broadcast
+    states. Returns the (obs_list, states) to solve."""
+    from hyper_nav_gnss.corrections.receiver_model import SatelliteStates
+    from hyper_nav_gnss.orbits.precise import REASONS
+    from hyper_nav_gnss.signals import _F_B1I, _F_B3I
+    k_if = _F_B1I ** 2 / (_F_B1I ** 2 - _F_B3I ** 2)
+    systems = set(precise.systems)
+    rows = [(e, k, s) for e, (o, st) in enumerate(zip(obs_list, states)) for k, s in enumerate(o.sat_ids)
+            if s[0] in systems]
+    if not rows:
+        return obs_list, states
+    ep_i = np.array([r[0] for r in rows], int)
+    k_i = np.array([r[1] for r in rows], int)
+    sats = [r[2] for r in rows]
+    t = np.array([obs_list[e].t_rx_gpst_s for e in ep_i], float)
+    tau = np.array([obs_list[e].pr_m[k] for e, k in zip(ep_i, k_i)]) / C_MPS
+    c0, _ = precise.clock(sats, t, -tau)
+    R, V, C, D, why = precise.states(sats, t, -tau - np.nan_to_num(c0))
+    bds = np.array([s[0] == "C" for s in sats])
+    if bds.any():
+        tgd1 = np.array([obs_list[e].ephemerides[k].tgd for e, k in zip(ep_i[bds], k_i[bds])])
+        C[bds] = C[bds] + k_if * tgd1
+    keep = [np.ones(len(o), bool) for o in obs_list]
+    new = [SatelliteStates(st.r_sat_e_m.copy(), st.v_sat_e_mps.copy(), st.clock_s.copy(), st.clock_drift_sps.copy())
+           for st in states]
+    for j, (e, k) in enumerate(zip(ep_i, k_i)):
+        if why[j] >= 0:
+            keep[e][k] = False
+            counters[REASONS[why[j]]] += 1
+        else:
+            st = new[e]
+            st.r_sat_e_m[k], st.v_sat_e_mps[k], st.clock_s[k], st.clock_drift_sps[k] = R[j], V[j], C[j], D[j]
+            counters["precise_satellite_epochs"] += 1
+    out_obs, out_st = [], []
+    for o, st, kp in zip(obs_list, new, keep):
+        if kp.all():
+            out_obs.append(o)
+            out_st.append(st)
+        else:
+            idx = np.flatnonzero(kp)
+            out_obs.append(o.subset(idx))
+            out_st.append(st.subset(idx))
+    return out_obs, out_st
+
+
 def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None,
-          batched: bool = True) -> list[SppSolution]:
+          batched: bool = True, precise=None) -> list[SppSolution]:
     """SPP of every epoch, each started from the previous valid solution (the
     first from ``x0`` = [x, y, z, b], e.g. a RINEX header's approximate
     position; None = the Earth's centre).
@@ -288,13 +344,19 @@ def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=Non
     where that gives what :func:`solve_epoch` gives; an epoch the batch does
     not settle (too few satellites, a RAIM alarm, no degree of freedom, no
     start yet, or the epoch after such one) is solved by :func:`solve_epoch`
-    from the previous solution, as before."""
+    from the previous solution, as before.
+
+    ``precise``: a :class:`~hyper_nav_gnss.orbits.precise.PreciseEphemeris`
+    whose orbits and clocks replace the broadcast ones for the systems it
+    holds (:func:`precise_states`); None = broadcast only."""
     counters = counters if counters is not None else Counter()
     out = []
     for a in range(0, len(epochs), BATCH_EPOCHS):
         block = epochs[a:a + BATCH_EPOCHS]
         obs_list = [satellite_observations(raw, store, cfg.model, counters, exclude=cfg.exclude) for raw in block]
         states = states_batch(obs_list)
+        if precise is not None:
+            obs_list, states = precise_states(obs_list, states, precise, counters)
         k0 = 0
         while batched and k0 < len(block) and (x0 is None or not np.all(np.isfinite(x0))):
             s = solve_epoch(block[k0], store, cfg, x0, counters, obs=obs_list[k0],      # no start yet: one by one

@@ -1,0 +1,106 @@
+"""spp OBS NAV --sp3 FILE on the shared TLSE file (2024-01-01): no precise
+product of that day is in the shared data, so (1) the 2023 GFZ product
+(../shared/gnss-real, written as an SP3 file by the test) is refused with
+both spans named, and (2) a product written by the test from the day's own
+broadcast orbits and clocks (the relativistic term removed, BeiDou clocks
+moved to the B1I/B3I ionosphere-free reference, as IGS products hold them)
+must give the broadcast solution back: that proves the plumbing (transmit
+time, frames, relativity, BeiDou clock reference, interpolation), not the
+precise products' accuracy (tested in hyper_nav_gnss/test/orbits/test_precise.py)."""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hyper_nav_gnss.formats import rinex_nav
+from hyper_nav_gnss.orbits import ephemeris as ep
+from hyper_nav_gnss.signals import _F_B1I, _F_B3I
+from hyper_nav_workbench.spp import main
+
+_T = Path(__file__).resolve().parents[2] / "hyper_nav_gnss" / "test"
+
+
+def _load(name, path):
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+rd = _load("hyper_nav_gnss_real_data", _T / "_real_data.py")
+gd = _load("gnss_test_data", _T / "_data.py")
+sys.path.insert(0, str(_T / "orbits"))
+from sp3_writer import write_sp3  # noqa: E402
+
+
+def test_spp_refuses_a_product_of_another_day(tmp_path, capsys):
+    sp3 = tmp_path / "GFZ0MGXRAP_20230010000_01D_05M_ORB.SP3"
+    write_sp3(sp3, gd.read_sp3_csv(gd.SP3_2023), frame="IGS20", agency="GFZ")
+    obs, nav = rd.real_file(rd.TLSE_OBS), rd.real_file(rd.TLSE_NAV)
+    assert main([str(obs), str(nav), "--sp3", str(sp3), "--short", "3", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "GFZ0MGXRAP_20230010000_01D_05M_ORB.SP3 covers 2023-01-01 00:00:00 .. 2023-01-01 02:00:00 GPST" in err
+    assert "the observations span 2024-01-01 12:00:00 .. 2024-01-01 12:00:02 GPST" in err
+    assert not (tmp_path / "o").exists()
+
+
+def _rel_s(eph, t):
+    mu, _ = ep.constants(eph.system)
+    n = np.sqrt(mu / eph.sqrtA ** 6) + eph.delta_n
+    E = ep._kepler_E(np.atleast_1d(eph.M0 + n * (t - eph.toe_s)), eph.e)[0]
+    return -2 * np.sqrt(mu) / ep.C_MPS ** 2 * eph.e * eph.sqrtA * np.sin(E)
+
+
+def _broadcast_product(nav, t_mid_gpst, t0_gpst, t1_gpst):
+    """SP3 rows of G and C from the broadcast record of each satellite at t_mid."""
+    ephs = list(rinex_nav.read_rinex_nav(nav))
+    k_if = _F_B1I ** 2 / (_F_B1I ** 2 - _F_B3I ** 2)
+    rows = []
+    for sat in sorted({e.sat_id for e in ephs if e.system in "GC"}):
+        eph = ep.select_ephemeris(ephs, sat, float(ep.system_time_s(sat[0], t_mid_gpst)))
+        if eph is None:
+            continue
+        for t in np.arange(t0_gpst, t1_gpst + 1.0, 300.0):
+            ts = float(ep.system_time_s(sat[0], t))
+            r, _, clk, _ = ep.satellite_position_ecef(eph, ts)
+            clk = clk - _rel_s(eph, ts) - (k_if * eph.tgd if sat[0] == "C" else 0.0)
+            rows.append((float(t), sat, r, clk))
+    return rows
+
+
+def _csv(path):
+    with open(path) as fh:
+        rows = list(csv.DictReader(fh))
+    return {r["gpst"]: r for r in rows}
+
+
+@pytest.mark.slow
+def test_spp_with_a_product_made_of_broadcast_gives_the_broadcast_solution(tmp_path, capsys):
+    obs, nav = rd.real_file(rd.TLSE_OBS), rd.real_file(rd.TLSE_NAV)
+    t_start = ep.calendar_to_system_s("G", 2024, 1, 1, 12, 0, 0.0)
+    sp3 = tmp_path / "BRD.sp3"
+    write_sp3(sp3, _broadcast_product(nav, t_start + 30.0, t_start - 3600.0, t_start + 3600.0))
+    n = "60"
+    assert main([str(obs), str(nav), "--short", n, "--out", str(tmp_path / "b"), "--formats", "csv,pos"]) == 0
+    assert main([str(obs), str(nav), "--short", n, "--out", str(tmp_path / "p"), "--formats", "csv,pos",
+                 "--sp3", str(sp3)]) == 0
+    out = capsys.readouterr().out
+    assert "[spp] orbits: precise SP3-d BRD.sp3" in out and "systems CG" in out
+    stem = "TLSE00FRA_R_20240011200_15M_01S_MO"
+    pos = (tmp_path / "p" / f"{stem}.pos").read_text()
+    assert "% orbits    : precise SP3-d BRD.sp3" in pos
+    assert "orbits" not in (tmp_path / "b" / f"{stem}.pos").read_text()
+    b, p = _csv(tmp_path / "b" / f"{stem}.csv"), _csv(tmp_path / "p" / f"{stem}.csv")
+    assert b.keys() == p.keys() and len(b) == int(n)
+    d = np.array([[float(p[k][c]) - float(b[k][c]) for c in ("x_ecef_m", "y_ecef_m", "z_ecef_m")] for k in b])
+    dclk = np.array([float(p[k]["clock_bias_m"]) - float(b[k]["clock_bias_m"]) for k in b])
+    used = [(b[k]["used"], p[k]["used"]) for k in b]
+    print(f"precise-made-of-broadcast minus broadcast: max |d pos| {np.abs(d).max() * 1e3:.2f} mm, "
+          f"max |d clock| {np.abs(dclk).max() * 1e3:.2f} mm")
+    assert all(x == y for x, y in used)
+    assert np.abs(d).max() < 0.01 and np.abs(dclk).max() < 0.01
