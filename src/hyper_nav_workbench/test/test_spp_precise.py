@@ -35,7 +35,7 @@ def _load(name, path):
 rd = _load("hyper_nav_gnss_real_data", _T / "_real_data.py")
 gd = _load("gnss_test_data", _T / "_data.py")
 sys.path.insert(0, str(_T / "orbits"))
-from sp3_writer import write_sp3  # noqa: E402
+from sp3_writer import write_clk, write_sp3  # noqa: E402
 
 
 def test_spp_refuses_a_product_of_another_day(tmp_path, capsys):
@@ -56,7 +56,7 @@ def _rel_s(eph, t):
     return -2 * np.sqrt(mu) / ep.C_MPS ** 2 * eph.e * eph.sqrtA * np.sin(E)
 
 
-def _broadcast_product(nav, t_mid_gpst, t0_gpst, t1_gpst):
+def _broadcast_product(nav, t_mid_gpst, t0_gpst, t1_gpst, step_s=300.0):
     """SP3 rows of G and C from the broadcast record of each satellite at t_mid."""
     ephs = list(rinex_nav.read_rinex_nav(nav))
     k_if = _F_B1I ** 2 / (_F_B1I ** 2 - _F_B3I ** 2)
@@ -65,7 +65,7 @@ def _broadcast_product(nav, t_mid_gpst, t0_gpst, t1_gpst):
         eph = ep.select_ephemeris(ephs, sat, float(ep.system_time_s(sat[0], t_mid_gpst)))
         if eph is None:
             continue
-        for t in np.arange(t0_gpst, t1_gpst + 1.0, 300.0):
+        for t in np.arange(t0_gpst, t1_gpst + 1.0, step_s):
             ts = float(ep.system_time_s(sat[0], t))
             r, _, clk, _ = ep.satellite_position_ecef(eph, ts)
             clk = clk - _rel_s(eph, ts) - (k_if * eph.tgd if sat[0] == "C" else 0.0)
@@ -104,3 +104,15 @@ def test_spp_with_a_product_made_of_broadcast_gives_the_broadcast_solution(tmp_p
           f"max |d clock| {np.abs(dclk).max() * 1e3:.2f} mm")
     assert all(x == y for x, y in used)
     assert np.abs(d).max() < 0.01 and np.abs(dclk).max() < 0.01
+    # the clocks from a RINEX CLK file (30 s) and an SP3 without clocks: the same solution
+    rows = _broadcast_product(nav, t_start + 30.0, t_start - 3600.0, t_start + 3600.0)
+    write_sp3(tmp_path / "BRD_noclk.sp3", [(t, s, r, np.nan) for t, s, r, _ in rows])
+    write_clk(tmp_path / "BRD.clk", [(t, s, c) for t, s, _, c in _broadcast_product(
+        nav, t_start + 30.0, t_start - 600.0, t_start + 600.0, step_s=30.0)])
+    assert main([str(obs), str(nav), "--short", n, "--out", str(tmp_path / "c"), "--formats", "csv,pos",
+                 "--sp3", str(tmp_path / "BRD_noclk.sp3"), "--clk", str(tmp_path / "BRD.clk")]) == 0
+    assert "clocks BRD.clk" in (tmp_path / "c" / f"{stem}.pos").read_text()
+    c = _csv(tmp_path / "c" / f"{stem}.csv")
+    d = np.array([[float(c[k][x]) - float(b[k][x]) for x in ("x_ecef_m", "y_ecef_m", "z_ecef_m")] for k in b])
+    print(f"with --clk: max |d pos| {np.abs(d).max() * 1e3:.2f} mm")
+    assert np.abs(d).max() < 0.01 and all(c[k]["used"] == b[k]["used"] for k in b)

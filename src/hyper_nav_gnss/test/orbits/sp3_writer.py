@@ -55,3 +55,18 @@ def write_sp3(path, rows, version: str = "d", frame: str = "IGS20", agency: str 
     out.append("EOF")
     with open(path, "w") as fh:
         fh.write("\n".join(out) + "\n")
+
+
+def write_clk(path, rows, version: float = 3.00, time_system: str = "GPS") -> None:
+    """A RINEX CLK file of satellite clock (AS) records from rows (t_gpst_s, sat, clk_s); NaN clocks left out."""
+    out = [f"{version:9.2f}           C                   G                   RINEX VERSION / TYPE",
+           f"   {time_system:3s}{'':54s}TIME SYSTEM ID",
+           f"{'':60s}END OF HEADER"]
+    for t, sat, clk in sorted(rows, key=lambda r: (r[0], r[1])):
+        if not np.isfinite(clk):
+            continue
+        c = _cal(t)
+        out.append(f"AS {sat:3s}  {c.year:4d} {c.month:02d} {c.day:02d} {c.hour:02d} {c.minute:02d} "
+                   f"{c.second + c.microsecond * 1e-6:9.6f}  1   {clk:19.12E}")
+    with open(path, "w") as fh:
+        fh.write("\n".join(out) + "\n")

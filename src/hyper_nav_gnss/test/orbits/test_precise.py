@@ -188,3 +188,41 @@ def test_relativistic_term_equals_broadcast_form(tmp_path):
     assert np.linalg.norm(rp[0] - rb) < 0.01          # 1 um in the written file, the polynomial to mm
     assert np.linalg.norm(vp[0] - vb) < 1e-3
     assert abs(cp[0] - cb) < 1e-10 and abs(dp[0] - db) < 1e-12
+
+
+def test_rinex_clk_clocks_replace_the_sp3_clocks(tmp_path):
+    """A RINEX CLK file of the same clocks at 30 s (linear between the SP3
+    epochs: the clock model's own interpolation, so the results must agree
+    to 1e-15 s) and an SP3 file without clocks: the states equal those of
+    the SP3 file with its clocks; the CLK span limits the product's span."""
+    from hyper_nav_gnss.formats.rinex_clk import read_rinex_clk
+    from sp3_writer import write_clk
+    rows = [r for r in _rows(data.SP3_2021) if r[1] in ("G01", "G02", "G03")]
+    with_clk = _product(tmp_path, rows, "a.sp3")
+    no_clk = tmp_path / "noclk.sp3"
+    write_sp3(no_clk, [(t, s, r, np.nan) for t, s, r, _ in rows])
+    t0, t1 = with_clk.span_gpst_s
+    fine = np.arange(t0, t0 + 7200.0 + 1.0, 30.0)
+    sats = ["G01", "G02", "G03"]
+    c, _ = with_clk.clock([s for s in sats for _ in fine], np.tile(fine, 3))
+    clk_rows = [(t, s, v) for (s, t), v in zip([(s, t) for s in sats for t in fine], c)]
+    write_clk(tmp_path / "a.clk", clk_rows)
+    grid = read_rinex_clk(tmp_path / "a.clk")
+    assert grid.clock_s.shape == (241, 3) and grid.span_gpst_s == (t0, t0 + 7200.0)
+    pe = PreciseEphemeris(read_sp3(no_clk), grid)
+    assert pe.span_gpst_s == (t0, t0 + 7200.0)
+    t = t0 + 1234.5 + np.zeros(3)
+    a = with_clk.states(sats, t)
+    b = pe.states(sats, t)
+    np.testing.assert_allclose(b[0], a[0], atol=1e-9)
+    np.testing.assert_allclose(b[2], a[2], atol=1e-15)
+    # without the CLK file the SP3 has no clock at all: every satellite refused, by reason
+    assert [REASONS[w] for w in PreciseEphemeris(read_sp3(no_clk)).states(sats, t)[4]] == ["precise_no_clock"] * 3
+    # beyond the CLK span (2 h) although inside the SP3's (6 h): refused
+    assert REASONS[pe.states(["G01"], np.array([t0 + 7300.0]))[4][0]] == "precise_outside_span"
+    write_clk(tmp_path / "utc.clk", clk_rows[:5], time_system="UTC")
+    with pytest.raises(RinexFormatError, match="utc.clk line 2: time system 'UTC'"):
+        read_rinex_clk(tmp_path / "utc.clk")
+    write_clk(tmp_path / "v4.clk", clk_rows[:5], version=4.0)
+    with pytest.raises(RinexFormatError, match="v4.clk line 1: RINEX clock version 4.00 is not read"):
+        read_rinex_clk(tmp_path / "v4.clk")
