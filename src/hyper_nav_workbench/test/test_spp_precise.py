@@ -2,11 +2,14 @@
 product of that day is in the shared data, so (1) the 2023 GFZ product
 (../shared/gnss-real, written as an SP3 file by the test) is refused with
 both spans named, and (2) a product written by the test from the day's own
-broadcast orbits and clocks (the relativistic term removed, BeiDou clocks
-moved to the B1I/B3I ionosphere-free reference, as IGS products hold them)
+broadcast orbits and clocks (the relativistic term removed, Galileo and BeiDou
+clocks moved to the E1/E5a and B1I/B3I ionosphere-free references, as IGS products hold them)
 must give the broadcast solution back: that proves the plumbing (transmit
-time, frames, relativity, BeiDou clock reference, interpolation), not the
-precise products' accuracy (tested in hyper_nav_gnss/test/orbits/test_precise.py)."""
+time, frames, relativity, Galileo and BeiDou clock references, interpolation), not the
+precise products' accuracy (tested in hyper_nav_gnss/test/orbits/test_precise.py). What remains is
+the interpolation (mm), the SP3's 1 mm / 1 ps resolution and the two relativistic forms: the
+precise -2 r.v/c^2 (IGS) differs from the broadcast F e sqrtA sinE by the harmonic terms' radial
+velocity (up to about 1.5 cm of clock per satellite, measured on TLSE's satellites)."""
 from __future__ import annotations
 
 import csv
@@ -57,18 +60,28 @@ def _rel_s(eph, t):
 
 
 def _broadcast_product(nav, t_mid_gpst, t0_gpst, t1_gpst, step_s=300.0):
-    """SP3 rows of G and C from the broadcast record of each satellite at t_mid."""
+    """SP3 rows of G, E (the I/NAV records the dual mode's E1+E5b pairs use) and C from the broadcast record
+    of each satellite at t_mid, clocks moved to the IGS references (E1/E5a, B1I/B3I)."""""
+    from collections import Counter
+
+    from hyper_nav_gnss.corrections.receiver_model import _select
+    from hyper_nav_workbench.core.spp_run import _PostProcessingStore
     ephs = list(rinex_nav.read_rinex_nav(nav))
+    store = _PostProcessingStore()
+    for e in ephs:
+        store.add(e)
     k_if = _F_B1I ** 2 / (_F_B1I ** 2 - _F_B3I ** 2)
     rows = []
-    for sat in sorted({e.sat_id for e in ephs if e.system in "GC"}):
-        eph = ep.select_ephemeris(ephs, sat, float(ep.system_time_s(sat[0], t_mid_gpst)))
+    for sat in sorted({e.sat_id for e in ephs if e.system in "GCE"}):
+        # the record spp itself picks at t_mid (its choice is per minute)
+        eph = _select(store, sat[0], int(sat[1:]), t_mid_gpst, ep.GAL_CLOCK_E1E5B if sat[0] == "E" else 0, Counter())
         if eph is None:
             continue
+        to_igs = {"C": -k_if * eph.tgd, "E": eph.tgd - eph.tgd2}.get(sat[0], 0.0)   # E: I/NAV -> E1/E5a
         for t in np.arange(t0_gpst, t1_gpst + 1.0, step_s):
             ts = float(ep.system_time_s(sat[0], t))
             r, _, clk, _ = ep.satellite_position_ecef(eph, ts)
-            clk = clk - _rel_s(eph, ts) - (k_if * eph.tgd if sat[0] == "C" else 0.0)
+            clk = clk - _rel_s(eph, ts) + to_igs
             rows.append((float(t), sat, r, clk))
     return rows
 
@@ -90,7 +103,7 @@ def test_spp_with_a_product_made_of_broadcast_gives_the_broadcast_solution(tmp_p
     assert main([str(obs), str(nav), "--short", n, "--out", str(tmp_path / "p"), "--formats", "csv,pos",
                  "--sp3", str(sp3)]) == 0
     out = capsys.readouterr().out
-    assert "[spp] orbits: precise SP3-d BRD.sp3" in out and "systems CG" in out
+    assert "[spp] orbits: precise SP3-d BRD.sp3" in out and "systems CEG" in out
     stem = "TLSE00FRA_R_20240011200_15M_01S_MO"
     pos = (tmp_path / "p" / f"{stem}.pos").read_text()
     assert "% orbits    : precise SP3-d BRD.sp3" in pos

@@ -282,10 +282,9 @@ def precise_states(obs_list, states, precise, counters: Counter):
     :class:`~hyper_nav_gnss.orbits.precise.PreciseEphemeris`) covers taken from
     it instead of the broadcast records, at the same transmit time t_rx - P/c -
     dt_sv (the clock first at t_rx - P/c, then every state at the transmit
-    time, as :func:`states_batch`). BeiDou: precise clocks refer to the B1I/B3I
-    ionosphere-free pair (IGS MGEX), the broadcast clock, which the group
-    delays already applied to ``pr_m`` assume, to B3I: dt_B3I = dt_IF +
-    f1^2/(f1^2 - f3^2) TGD1. A satellite the product covers (its system) but
+    time, as :func:`states_batch`), then moved to the clock reference of the
+    broadcast record, which the group delays already applied to ``pr_m``
+    assume (:func:`_precise_clock_to_record`). A satellite the product covers (its system) but
     cannot serve at that time (not listed, outside the span, a missing
     position or clock) is removed from the epoch and counted under its reason
     (``precise_*``); systems the product does not hold keep their broadcast
@@ -306,10 +305,8 @@ def precise_states(obs_list, states, precise, counters: Counter):
     tau = np.array([obs_list[e].pr_m[k] for e, k in zip(ep_i, k_i)]) / C_MPS
     c0, _ = precise.clock(sats, t, -tau)
     R, V, C, D, why = precise.states(sats, t, -tau - np.nan_to_num(c0))
-    bds = np.array([s[0] == "C" for s in sats])
-    if bds.any():
-        tgd1 = np.array([obs_list[e].ephemerides[k].tgd for e, k in zip(ep_i[bds], k_i[bds])])
-        C[bds] = C[bds] + k_if * tgd1
+    for j, (e, k) in enumerate(zip(ep_i, k_i)):
+        C[j] += _precise_clock_to_record(obs_list[e].ephemerides[k], k_if)
     keep = [np.ones(len(o), bool) for o in obs_list]
     new = [SatelliteStates(st.r_sat_e_m.copy(), st.v_sat_e_mps.copy(), st.clock_s.copy(), st.clock_drift_sps.copy())
            for st in states]
@@ -331,6 +328,21 @@ def precise_states(obs_list, states, precise, counters: Counter):
             out_obs.append(o.subset(idx))
             out_st.append(st.subset(idx))
     return out_obs, out_st
+
+
+def _precise_clock_to_record(eph, k_if: float) -> float:
+    """dt_record - dt_precise [s] of one satellite: IGS (MGEX) precise
+    clocks refer to GPS L1/L2 (as LNAV: 0), Galileo E1/E5a (as F/NAV; an
+    I/NAV record's E1/E5b clock is dt_INAV = dt_FNAV + BGD(E1,E5b) -
+    BGD(E1,E5a), OS SIS ICD 5.1.5, :mod:`.signal_delays`) and BeiDou B1I/B3I
+    (broadcast: B3I, dt_B3I = dt_IF + f1^2/(f1^2 - f3^2) TGD1)."""
+    if eph.system == "C":
+        return k_if * eph.tgd
+    if eph.system == "E":
+        from hyper_nav_gnss.orbits.ephemeris import GAL_CLOCK_E1E5A, GAL_CLOCK_E1E5B
+        fnav = bool(eph.data_source & GAL_CLOCK_E1E5A) and not (eph.data_source & GAL_CLOCK_E1E5B)
+        return 0.0 if fnav else eph.tgd2 - eph.tgd
+    return 0.0
 
 
 def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None,
