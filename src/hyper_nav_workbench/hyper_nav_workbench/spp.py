@@ -26,7 +26,11 @@ Lagrange interpolation, linear clocks, relativistic term as for broadcast;
 hyper_nav_gnss/orbits/precise.py); a satellite of those systems the
 product cannot serve at an epoch is left out and counted (``precise_*``);
 the other systems stay on broadcast. A product that does not cover the
-observation span is refused (exit 2, both spans named). The .pos header's
+observation span is refused (exit 2, both spans named). ``--atx FILE``
+(ANTEX 1.4, e.g. igs20.atx): the satellites' antenna phase-centre offsets,
+per signal or ionosphere-free pair, in the nominal yaw attitude; SP3
+orbits are centres of mass, so without it each satellite's range is off
+by its offset (0.6-1.6 m for GPS): a warning says so. The .pos header's
 ``orbits`` line says what was used. Broadcast records are still needed
 (satellite selection, group delays).
 
@@ -239,6 +243,9 @@ def parser() -> argparse.ArgumentParser:
                          "unless they cover the observation span")
     ap.add_argument("--clk", metavar="FILE",
                     help="files, with --sp3: precise clocks (RINEX CLK) instead of the SP3 file's clocks")
+    ap.add_argument("--atx", metavar="FILE",
+                    help="files, with --sp3: ANTEX 1.4 file (e.g. igs20.atx) whose satellite antenna phase-centre "
+                         "offsets move the precise orbits' centres of mass to the antenna (without it: a warning)")
     ap.add_argument("--bag", help="a bag with gnss/raw and gnss/ephemeris instead of files")
     ap.add_argument("--fix-bag", metavar="DIR",
                     help="also write the solutions as sensor_msgs/NavSatFix on /gnss/fix into an MCAP bag DIR "
@@ -361,10 +368,10 @@ def main(argv=None) -> int:
     direct = bool(args.files) and not args.bag and not _is_campaign(args.files)
     precise = None
     try:
-        if (args.sp3 or args.clk) and not direct:
-            raise ConfigError("--sp3 / --clk apply to files (spp OBS NAV... --sp3 FILE)")
-        if args.clk and not args.sp3:
-            raise ConfigError("--clk needs --sp3 (the orbits)")
+        if (args.sp3 or args.clk or args.atx) and not direct:
+            raise ConfigError("--sp3 / --clk / --atx apply to files (spp OBS NAV... --sp3 FILE)")
+        if (args.clk or args.atx) and not args.sp3:
+            raise ConfigError("--clk and --atx need --sp3 (the orbits)")
         if args.bag:
             doc = {"spp": {}}
             if args.reference_xyz:
@@ -384,7 +391,7 @@ def main(argv=None) -> int:
             name = _stem(args.files[0])
             ref = spp_run.parse_reference(args.ref, inp.header, args.files[0], args.ref_quality) if args.ref else None
             if args.sp3:
-                precise = spp_run.load_precise(args.sp3, args.clk, inp.epochs)
+                precise = spp_run.load_precise(args.sp3, args.clk, inp.epochs, args.atx)
         else:
             if not args.files:
                 ap.error("give RINEX files (OBS NAV...), a data set name, a description YAML or --bag")

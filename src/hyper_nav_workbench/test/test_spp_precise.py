@@ -38,7 +38,7 @@ def _load(name, path):
 rd = _load("hyper_nav_gnss_real_data", _T / "_real_data.py")
 gd = _load("gnss_test_data", _T / "_data.py")
 sys.path.insert(0, str(_T / "orbits"))
-from sp3_writer import write_clk, write_sp3  # noqa: E402
+from sp3_writer import write_antex, write_clk, write_sp3  # noqa: E402
 
 
 def test_spp_refuses_a_product_of_another_day(tmp_path, capsys):
@@ -129,3 +129,57 @@ def test_spp_with_a_product_made_of_broadcast_gives_the_broadcast_solution(tmp_p
     d = np.array([[float(c[k][x]) - float(b[k][x]) for x in ("x_ecef_m", "y_ecef_m", "z_ecef_m")] for k in b])
     print(f"with --clk: max |d pos| {np.abs(d).max() * 1e3:.2f} mm")
     assert np.abs(d).max() < 0.01 and all(c[k]["used"] == b[k]["used"] for k in b)
+
+
+# ANTEX frequencies of the dual mode's pairs (GPS 1C+2W, Galileo 1X+7X, BeiDou 2I+6I)
+_PAIRS = {"G": ("G01", "G02", 1575.42e6, 1227.60e6), "E": ("E01", "E07", 1575.42e6, 1207.14e6),
+          "C": ("C02", "C06", _F_B1I, _F_B3I)}
+
+
+def _pcos(sat):
+    """Test offsets: x 0.3 m, z 0.8-1.6 m by PRN, the second frequency's z 0.1 m above the first's."""
+    z = 0.8 + 0.025 * int(sat[1:])
+    f1, f2, _, _ = _PAIRS[sat[0]]
+    return {f1: (0.3, 0.0, z), f2: (0.3, 0.0, z + 0.1)}
+
+
+@pytest.mark.slow
+def test_spp_with_antenna_offsets(tmp_path, capsys):
+    """A product of centres of mass: the broadcast (antenna) positions minus
+    the ionosphere-free offset of each satellite's pair (x 0.3 m, z 0.8-1.6
+    m by PRN, 0.1 m apart between the frequencies: z_IF = z1 - 0.155 m for
+    GPS): with --atx the broadcast solution comes back (mm); without it the
+    solution moves by decimetres and a WARNING names the missing offsets."""
+    from hyper_nav_gnss.orbits.satellite_antenna import pco_ecef_m
+    obs, nav = rd.real_file(rd.TLSE_OBS), rd.real_file(rd.TLSE_NAV)
+    t_start = ep.calendar_to_system_s("G", 2024, 1, 1, 12, 0, 0.0)
+    rows = _broadcast_product(nav, t_start + 30.0, t_start - 3600.0, t_start + 3600.0)
+    com = []
+    for t, sat, r, clk in rows:
+        f1, f2, fa, fb = _PAIRS[sat[0]]
+        a1 = fa ** 2 / (fa ** 2 - fb ** 2)
+        p = _pcos(sat)
+        body = a1 * np.array(p[f1]) + (1.0 - a1) * np.array(p[f2])
+        com.append((t, sat, r - pco_ecef_m(body[None], r[None], np.array([t]))[0], clk))
+    write_sp3(tmp_path / "COM.sp3", com)
+    write_antex(tmp_path / "test.atx", {s: [(None, None, _pcos(s))] for s in sorted({r[1] for r in rows})})
+    n = "30"
+    args = [str(obs), str(nav), "--short", n, "--formats", "csv"]
+    assert main(args + ["--out", str(tmp_path / "b")]) == 0
+    assert main(args + ["--out", str(tmp_path / "a"), "--sp3", str(tmp_path / "COM.sp3"),
+                        "--atx", str(tmp_path / "test.atx")]) == 0
+    out_a = capsys.readouterr().out
+    assert main(args + ["--out", str(tmp_path / "n"), "--sp3", str(tmp_path / "COM.sp3")]) == 0
+    out_n = capsys.readouterr().out
+    assert "satellite antenna offsets test.atx" in out_a and "WARNING" not in out_a
+    assert "NO satellite antenna offsets" in out_n and "WARNING: precise orbits without --atx" in out_n
+    stem = "TLSE00FRA_R_20240011200_15M_01S_MO"
+    b, a, m = (_csv(tmp_path / d / f"{stem}.csv") for d in ("b", "a", "n"))
+    xyz = ("x_ecef_m", "y_ecef_m", "z_ecef_m")
+    da = np.array([[float(a[k][c]) - float(b[k][c]) for c in xyz] for k in b])
+    dn = np.array([[float(m[k][c]) - float(b[k][c]) for c in xyz] for k in b])
+    print(f"with --atx: max |d pos| {np.abs(da).max() * 1e3:.1f} mm; without: max 3-D "
+          f"{np.linalg.norm(dn, axis=1).max():.3f} m")
+    assert np.abs(da).max() < 0.01
+    assert np.linalg.norm(dn, axis=1).min() > 0.05
+

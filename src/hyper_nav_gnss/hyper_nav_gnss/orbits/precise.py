@@ -47,7 +47,8 @@ from hyper_nav_gnss.orbits.ephemeris import OMEGA_E_GPS_RADPS
 N_POINTS = 10            # RTKLIB NMAX = 10 (it uses 11 nodes); 10 keeps the window centred on the interval
 VEL_STEP_S = 1e-3        # RTKLIB peph2pos tt
 DRIFT_STEP_S = 1.0       # step of the clock drift's difference (the relativistic term's change resolved to 1e-15 s/s)
-REASONS = ("precise_not_listed", "precise_outside_span", "precise_no_orbit", "precise_no_clock")
+REASONS = ("precise_not_listed", "precise_outside_span", "precise_no_orbit", "precise_no_clock",
+           "precise_no_antenna")     # the last: set by the users of ``antennas`` (positioning/spp.py)
 
 
 @dataclass(frozen=True)
@@ -68,9 +69,12 @@ class PreciseEphemeris:
     """Orbits of an :class:`~hyper_nav_gnss.formats.sp3.Sp3Product` and the
     clocks of ``clocks`` (a :class:`ClockGrid`, e.g. from
     :func:`hyper_nav_gnss.formats.rinex_clk.read_rinex_clk`) or, without
-    it, the SP3 file's own clocks. ``states`` evaluates many rows at once."""
+    it, the SP3 file's own clocks. ``states`` evaluates many rows at once.
+    ``antennas``: the satellites' phase-centre offsets
+    (:class:`hyper_nav_gnss.formats.antex.SatelliteAntennas`), which the
+    user applies per signal (:mod:`.satellite_antenna`); None = not known."""
 
-    def __init__(self, orbits, clocks: ClockGrid | None = None, n_points: int = N_POINTS):
+    def __init__(self, orbits, clocks: ClockGrid | None = None, n_points: int = N_POINTS, antennas=None):
         if len(orbits.t_gpst_s) < n_points:
             raise ValueError(f"{orbits.source}: {len(orbits.t_gpst_s)} epochs, fewer than the "
                              f"{n_points} the interpolation needs")
@@ -78,6 +82,7 @@ class PreciseEphemeris:
         self.clocks = clocks if clocks is not None else ClockGrid(orbits.t_gpst_s, orbits.sat_ids,
                                                                   orbits.clock_s, orbits.source)
         self.n_points = int(n_points)
+        self.antennas = antennas
         self._col = {s: j for j, s in enumerate(orbits.sat_ids)}
         self._ccol = {s: j for j, s in enumerate(self.clocks.sat_ids)}
 

@@ -286,7 +286,8 @@ def precise_states(obs_list, states, precise, counters: Counter):
     broadcast record, which the group delays already applied to ``pr_m``
     assume (:func:`_precise_clock_to_record`). A satellite the product covers (its system) but
     cannot serve at that time (not listed, outside the span, a missing
-    position or clock) is removed from the epoch and counted under its reason
+    position or clock, with ``precise.antennas`` no offset for its signals)
+    is removed from the epoch and counted under its reason
     (``precise_*``); systems the product does not hold keep their broadcast
     states. Returns the (obs_list, states) to solve."""
     from hyper_nav_gnss.corrections.receiver_model import SatelliteStates
@@ -307,6 +308,8 @@ def precise_states(obs_list, states, precise, counters: Counter):
     R, V, C, D, why = precise.states(sats, t, -tau - np.nan_to_num(c0))
     for j, (e, k) in enumerate(zip(ep_i, k_i)):
         C[j] += _precise_clock_to_record(obs_list[e].ephemerides[k], k_if)
+    if precise.antennas is not None:
+        R = R + _phase_centre_offsets(obs_list, ep_i, k_i, sats, t - tau, R, why, precise.antennas)
     keep = [np.ones(len(o), bool) for o in obs_list]
     new = [SatelliteStates(st.r_sat_e_m.copy(), st.v_sat_e_mps.copy(), st.clock_s.copy(), st.clock_drift_sps.copy())
            for st in states]
@@ -328,6 +331,34 @@ def precise_states(obs_list, states, precise, counters: Counter):
             out_obs.append(o.subset(idx))
             out_st.append(st.subset(idx))
     return out_obs, out_st
+
+
+def _phase_centre_offsets(obs_list, ep_i, k_i, sats, t_tx_gpst_s, R, why, antennas):
+    """ECEF offset centre of mass -> antenna phase centre of each row's
+    signal or ionosphere-free pair (:mod:`hyper_nav_gnss.orbits.satellite_antenna`;
+    the ANTEX frequency of a signal is its system and RINEX band: G01,
+    E07, C06); a row whose offset the file does not give gets reason
+    ``precise_no_antenna`` in ``why`` (in place). Returns (n, 3) [m]."""
+    from hyper_nav_gnss.orbits.precise import REASONS
+    from hyper_nav_gnss.orbits.satellite_antenna import pco_ecef_m
+    no_ant = REASONS.index("precise_no_antenna")
+    body = np.zeros((len(sats), 3))
+    for j, (e, k, sat) in enumerate(zip(ep_i, k_i, sats)):
+        if why[j] >= 0:
+            continue
+        o = obs_list[e]
+        a1, a2 = o.coef[k]                   # P_IF = a1 P1 - a2 P2 (a1 = 1, a2 = 0 single)
+        for code, w in zip(o.choices[k].codes, (a1, -a2)):
+            p = antennas.pco_body_m(sat, f"{sat[0]}0{code[0]}", float(t_tx_gpst_s[j]))
+            if p is None:
+                why[j] = no_ant
+                break
+            body[j] += w * p
+    ok = why < 0
+    d = np.zeros((len(sats), 3))
+    if ok.any():
+        d[ok] = pco_ecef_m(body[ok], R[ok], t_tx_gpst_s[ok])
+    return d
 
 
 def _precise_clock_to_record(eph, k_if: float) -> float:

@@ -70,3 +70,38 @@ def write_clk(path, rows, version: float = 3.00, time_system: str = "GPS") -> No
                    f"{c.second + c.microsecond * 1e-6:9.6f}  1   {clk:19.12E}")
     with open(path, "w") as fh:
         fh.write("\n".join(out) + "\n")
+
+
+def write_antex(path, sats: dict, receiver: bool = True, version: float = 1.4) -> None:
+    """An ANTEX file of satellite entries ``{sat: [(valid_from_gpst_s or None, valid_until or None,
+    {freq: (x, y, z) m})]}`` (plus one receiver antenna entry that the reader must skip)."""
+    def lab(text, label):
+        return f"{text:60s}{label}"
+
+    def date(t):
+        c = _cal(t)
+        return f"  {c.year:4d}    {c.month:2d}    {c.day:2d}    {c.hour:2d}    {c.minute:2d}   {c.second:10.7f}"
+    out = [lab(f"{version:8.1f}            M", "ANTEX VERSION / SYST"), lab("A", "PCV TYPE / REFANT"),
+           lab("", "END OF HEADER")]
+    blocks = []
+    if receiver:
+        blocks.append(("TRM59800.00     NONE", "", None, None, {"G01": (0.0011, 0.0005, 0.0660)}))
+    for sat, entries in sats.items():
+        for a, b, pcos in entries:
+            blocks.append((f"BLOCK TEST {sat[0]}", sat, a, b, pcos))
+    for typ, serial, a, b, pcos in blocks:
+        out += [lab("", "START OF ANTENNA"), lab(f"{typ:20s}{serial:20s}", "TYPE / SERIAL NO"),
+                lab("     0.0", "DAZI"), lab("     0.0  17.0   1.0", "ZEN1 / ZEN2 / DZEN"),
+                lab(f"{len(pcos):6d}", "# OF FREQUENCIES")]
+        if a is not None:
+            out.append(lab(date(a), "VALID FROM"))
+        if b is not None:
+            out.append(lab(date(b), "VALID UNTIL"))
+        for f, (x, y, z) in pcos.items():
+            out += [lab(f"   {f}", "START OF FREQUENCY"),
+                    lab(f"{x * 1e3:10.2f}{y * 1e3:10.2f}{z * 1e3:10.2f}", "NORTH / EAST / UP"),
+                    "   NOAZI    0.00    0.00    0.00",
+                    lab(f"   {f}", "END OF FREQUENCY")]
+        out.append(lab("", "END OF ANTENNA"))
+    with open(path, "w") as fh:
+        fh.write("\n".join(out) + "\n")
