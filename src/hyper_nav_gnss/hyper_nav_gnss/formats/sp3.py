@@ -15,7 +15,8 @@ named on the line, into ``np.empty`` arrays, so a satellite missing at one
 epoch shifts the others and leaves uninitialised memory as a position
 (tested in test_precise.py: a file with one record removed); it keeps
 999999.999999 clocks and 0.0 positions as values and ignores the ``%c``
-time system. This reader is about 60 lines.
+time system. This reader is about 100 lines and 36x faster (0.019 s vs
+0.69 s on the 73-epoch 2021 file, one run, machine shared).
 
 Refused with :class:`.rinex_file.RinexFormatError` (file, line, what): not
 an SP3 file, a version other than c/d, a time system other than GPS (GPST),

@@ -226,3 +226,23 @@ def test_rinex_clk_clocks_replace_the_sp3_clocks(tmp_path):
     write_clk(tmp_path / "v4.clk", clk_rows[:5], version=4.0)
     with pytest.raises(RinexFormatError, match="v4.clk line 1: RINEX clock version 4.00 is not read"):
         read_rinex_clk(tmp_path / "v4.clk")
+
+
+def test_broadcast_minus_precise_along_nadir_is_the_antenna_offset():
+    """GPS broadcast orbits are antenna phase centres, SP3 centres of mass:
+    per satellite, broadcast - precise along the nadir direction is nearly
+    constant over the 6 h (measured medians 0.61-1.58 m by PRN, std
+    0.04-0.27 m), the z phase-centre offset spp's warning quotes when no
+    ANTEX file is given."""
+    ephs = rinex_nav.read_rinex2_nav(data.real_file(data.RINEX2))[0]
+    by = {}
+    for t, sat, r, _ in _rows(data.SP3_2021):
+        eph = ep.select_ephemeris(ephs, sat, t)
+        if eph is None:
+            continue
+        d = ep.satellite_position_ecef(eph, t)[0] - r
+        by.setdefault(sat, []).append(d @ (-r / np.linalg.norm(r)))
+    med = np.array([np.median(v) for v in by.values()])
+    std = np.array([np.std(v) for v in by.values()])
+    assert len(by) == 31
+    assert 0.5 < med.min() < 0.7 and 1.5 < med.max() < 1.7 and std.max() < 0.3
