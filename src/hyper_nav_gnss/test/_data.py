@@ -1,6 +1,7 @@
 """Locate /work/shared/gnss-real (beside the repo) for the GNSS tests."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -8,7 +9,8 @@ import pytest
 from hyper_nav_sim.core.gnss import broadcast_error
 
 # this file: <repo>/src/hyper_nav_gnss/test/_data.py -> parents[3] = repo root
-REAL_DIR = Path(__file__).resolve().parents[3] / ".." / "shared" / "gnss-real"
+# (``HYPER_NAV_SHARED`` points elsewhere, as in _real_data.py: a git worktree whose parent holds no shared folder)
+REAL_DIR = Path(os.environ.get("HYPER_NAV_SHARED") or Path(__file__).resolve().parents[3] / ".." / "shared") / "gnss-real"
 RINEX2 = "brdc1180.21n"
 RINEX3 = "BRDC00IGS_R_20230010000_01D_MN_GC-subset.rnx"
 SP3_2021 = "sp3_COD0MGXFIN_20211180000_G.csv"

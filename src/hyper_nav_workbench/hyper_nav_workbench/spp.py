@@ -19,6 +19,21 @@ Modes (``--mode``): ``dual`` (default; ionosphere-free pairs: GPS L1C/A+L2P
 with the navigation files' Klobuchar ionosphere), ``both``. ``--systems``
 keeps some of G, E, C (e.g. ``--systems G``).
 
+Precise orbits (``--sp3 FILE``, SP3-c/d, as archives hold them; ``--clk
+FILE`` a RINEX CLK file for the clocks, else the SP3 clocks): they replace
+the broadcast orbits and clocks of the systems the SP3 holds (10-point
+Lagrange interpolation, linear clocks, relativistic term as for broadcast;
+hyper_nav_gnss/orbits/precise.py); a satellite of those systems the
+product cannot serve at an epoch is left out and counted (``precise_*``);
+the other systems stay on broadcast. A product that does not cover the
+observation span is refused (exit 2, both spans named). ``--atx FILE``
+(ANTEX 1.4, e.g. igs20.atx): the satellites' antenna phase-centre offsets,
+per signal or ionosphere-free pair, in the nominal yaw attitude; SP3
+orbits are centres of mass, so without it each satellite's range is off
+by its offset (0.6-1.6 m for GPS): a warning says so. The .pos header's
+``orbits`` line says what was used. Broadcast records are still needed
+(satellite selection, group delays).
+
 Outputs (``--out DIR``, default ``./spp_<observation file name>`` in the
 current directory; ``<name>.<ext>``, or ``<name>_<run>.<ext>`` for each run
 with ``--mode both``): ``.pos``
@@ -223,6 +238,14 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--plots", action="store_true", help="files: write the PNGs too")
     ap.add_argument("--no-plots", action="store_true", help="campaign: no PNGs")
     ap.add_argument("--short", type=int, default=None, metavar="N", help="only the first N epochs")
+    ap.add_argument("--sp3", metavar="FILE",
+                    help="files: precise orbits (SP3-c/d) instead of broadcast for the systems they hold; refused "
+                         "unless they cover the observation span")
+    ap.add_argument("--clk", metavar="FILE",
+                    help="files, with --sp3: precise clocks (RINEX CLK) instead of the SP3 file's clocks")
+    ap.add_argument("--atx", metavar="FILE",
+                    help="files, with --sp3: ANTEX 1.4 file (e.g. igs20.atx) whose satellite antenna phase-centre "
+                         "offsets move the precise orbits' centres of mass to the antenna (without it: a warning)")
     ap.add_argument("--bag", help="a bag with gnss/raw and gnss/ephemeris instead of files")
     ap.add_argument("--fix-bag", metavar="DIR",
                     help="also write the solutions as sensor_msgs/NavSatFix on /gnss/fix into an MCAP bag DIR "
@@ -308,6 +331,9 @@ def _print_result(inp, result) -> None:
         unhealthy = {k: v for k, v in r["counts"].items() if k.startswith("unhealthy_")}
         if unhealthy:
             print(f"[spp]   unhealthy satellites excluded (epochs): {unhealthy}")
+        if "orbits" in r:
+            pc = {k: v for k, v in sorted(r["counts"].items()) if k.startswith("precise_")}
+            print(f"[spp]   precise orbits: satellite-epochs served / left out by reason: {pc}")
         if "ours_all" in r:
             print(f"[spp]   ours, all {r['ours_all'].get('epochs', 0)} scored epochs: {_fmt(r['ours_all'])}")
         if "rtklib_same_epochs" in r:
@@ -340,7 +366,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     data_dir = pathlib.Path(args.data_dir) if args.data_dir else default_data_dir()
     direct = bool(args.files) and not args.bag and not _is_campaign(args.files)
+    precise = None
     try:
+        if (args.sp3 or args.clk or args.atx) and not direct:
+            raise ConfigError("--sp3 / --clk / --atx apply to files (spp OBS NAV... --sp3 FILE)")
+        if (args.clk or args.atx) and not args.sp3:
+            raise ConfigError("--clk and --atx need --sp3 (the orbits)")
         if args.bag:
             doc = {"spp": {}}
             if args.reference_xyz:
@@ -359,6 +390,8 @@ def main(argv=None) -> int:
             inp = spp_run.read_files(args.files[0], args.files[1:], doc["spp"]["runs"], args.short)
             name = _stem(args.files[0])
             ref = spp_run.parse_reference(args.ref, inp.header, args.files[0], args.ref_quality) if args.ref else None
+            if args.sp3:
+                precise = spp_run.load_precise(args.sp3, args.clk, inp.epochs, args.atx)
         else:
             if not args.files:
                 ap.error("give RINEX files (OBS NAV...), a data set name, a description YAML or --bag")
@@ -373,11 +406,14 @@ def main(argv=None) -> int:
         print(f"spp: error: {exc}", file=sys.stderr)
         return 2
     print(_reader_line(inp))
+    if precise is not None:
+        print(f"[spp] orbits: {spp_run.precise_note(precise)}")
     cpu_read = time.process_time()
     t0 = time.perf_counter()
     with_rtklib = args.rtklib if direct else not args.no_rtklib
     result = spp_run.evaluate(inp, doc, ref, with_rtklib,
-                              progress=lambda s: print(f"[spp] {s} ...", file=sys.stderr, flush=True))
+                              progress=lambda s: print(f"[spp] {s} ...", file=sys.stderr, flush=True),
+                              precise=precise)
     cpu_solve = time.process_time()
     _print_result(inp, result)
     out = pathlib.Path(args.out or f"spp_{name}")
@@ -385,6 +421,8 @@ def main(argv=None) -> int:
     written = []
     if direct:
         hdr = {"inp file": " ".join(str(pathlib.Path(f).name) for f in args.files)}
+        if precise is not None:
+            hdr["orbits"] = spp_run.precise_note(precise)
         written += write_outputs(result, out, name, formats, hdr)
     if args.fix_bag:
         from hyper_nav_workbench.core.spp_output import write_fix_bag

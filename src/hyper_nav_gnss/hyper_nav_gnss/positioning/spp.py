@@ -277,8 +277,107 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     return sol
 
 
+def precise_states(obs_list, states, precise, counters: Counter):
+    """The satellite states of the systems ``precise`` (an
+    :class:`~hyper_nav_gnss.orbits.precise.PreciseEphemeris`) covers taken from
+    it instead of the broadcast records, at the same transmit time t_rx - P/c -
+    dt_sv (the clock first at t_rx - P/c, then every state at the transmit
+    time, as :func:`states_batch`), then moved to the clock reference of the
+    broadcast record, which the group delays already applied to ``pr_m``
+    assume (:func:`_precise_clock_to_record`). A satellite the product covers (its system) but
+    cannot serve at that time (not listed, outside the span, a missing
+    position or clock, with ``precise.antennas`` no offset for its signals)
+    is removed from the epoch and counted under its reason
+    (``precise_*``); systems the product does not hold keep their broadcast
+    states. Returns the (obs_list, states) to solve."""
+    from hyper_nav_gnss.corrections.receiver_model import SatelliteStates
+    from hyper_nav_gnss.orbits.precise import REASONS
+    from hyper_nav_gnss.signals import _F_B1I, _F_B3I
+    k_if = _F_B1I ** 2 / (_F_B1I ** 2 - _F_B3I ** 2)
+    systems = set(precise.systems)
+    rows = [(e, k, s) for e, (o, st) in enumerate(zip(obs_list, states)) for k, s in enumerate(o.sat_ids)
+            if s[0] in systems]
+    if not rows:
+        return obs_list, states
+    ep_i = np.array([r[0] for r in rows], int)
+    k_i = np.array([r[1] for r in rows], int)
+    sats = [r[2] for r in rows]
+    t = np.array([obs_list[e].t_rx_gpst_s for e in ep_i], float)
+    tau = np.array([obs_list[e].pr_m[k] for e, k in zip(ep_i, k_i)]) / C_MPS
+    c0, _ = precise.clock(sats, t, -tau)
+    R, V, C, D, why = precise.states(sats, t, -tau - np.nan_to_num(c0))
+    for j, (e, k) in enumerate(zip(ep_i, k_i)):
+        C[j] += _precise_clock_to_record(obs_list[e].ephemerides[k], k_if)
+    if precise.antennas is not None:
+        R = R + _phase_centre_offsets(obs_list, ep_i, k_i, sats, t - tau, R, why, precise.antennas)
+    keep = [np.ones(len(o), bool) for o in obs_list]
+    new = [SatelliteStates(st.r_sat_e_m.copy(), st.v_sat_e_mps.copy(), st.clock_s.copy(), st.clock_drift_sps.copy())
+           for st in states]
+    for j, (e, k) in enumerate(zip(ep_i, k_i)):
+        if why[j] >= 0:
+            keep[e][k] = False
+            counters[REASONS[why[j]]] += 1
+        else:
+            st = new[e]
+            st.r_sat_e_m[k], st.v_sat_e_mps[k], st.clock_s[k], st.clock_drift_sps[k] = R[j], V[j], C[j], D[j]
+            counters["precise_satellite_epochs"] += 1
+    out_obs, out_st = [], []
+    for o, st, kp in zip(obs_list, new, keep):
+        if kp.all():
+            out_obs.append(o)
+            out_st.append(st)
+        else:
+            idx = np.flatnonzero(kp)
+            out_obs.append(o.subset(idx))
+            out_st.append(st.subset(idx))
+    return out_obs, out_st
+
+
+def _phase_centre_offsets(obs_list, ep_i, k_i, sats, t_tx_gpst_s, R, why, antennas):
+    """ECEF offset centre of mass -> antenna phase centre of each row's
+    signal or ionosphere-free pair (:mod:`hyper_nav_gnss.orbits.satellite_antenna`;
+    the ANTEX frequency of a signal is its system and RINEX band: G01,
+    E07, C06); a row whose offset the file does not give gets reason
+    ``precise_no_antenna`` in ``why`` (in place). Returns (n, 3) [m]."""
+    from hyper_nav_gnss.orbits.precise import REASONS
+    from hyper_nav_gnss.orbits.satellite_antenna import pco_ecef_m
+    no_ant = REASONS.index("precise_no_antenna")
+    body = np.zeros((len(sats), 3))
+    for j, (e, k, sat) in enumerate(zip(ep_i, k_i, sats)):
+        if why[j] >= 0:
+            continue
+        o = obs_list[e]
+        a1, a2 = o.coef[k]                   # P_IF = a1 P1 - a2 P2 (a1 = 1, a2 = 0 single)
+        for code, w in zip(o.choices[k].codes, (a1, -a2)):
+            p = antennas.pco_body_m(sat, f"{sat[0]}0{code[0]}", float(t_tx_gpst_s[j]))
+            if p is None:
+                why[j] = no_ant
+                break
+            body[j] += w * p
+    ok = why < 0
+    d = np.zeros((len(sats), 3))
+    if ok.any():
+        d[ok] = pco_ecef_m(body[ok], R[ok], t_tx_gpst_s[ok])
+    return d
+
+
+def _precise_clock_to_record(eph, k_if: float) -> float:
+    """dt_record - dt_precise [s] of one satellite: IGS (MGEX) precise
+    clocks refer to GPS L1/L2 (as LNAV: 0), Galileo E1/E5a (as F/NAV; an
+    I/NAV record's E1/E5b clock is dt_INAV = dt_FNAV + BGD(E1,E5b) -
+    BGD(E1,E5a), OS SIS ICD 5.1.5, :mod:`.signal_delays`) and BeiDou B1I/B3I
+    (broadcast: B3I, dt_B3I = dt_IF + f1^2/(f1^2 - f3^2) TGD1)."""
+    if eph.system == "C":
+        return k_if * eph.tgd
+    if eph.system == "E":
+        from hyper_nav_gnss.orbits.ephemeris import GAL_CLOCK_E1E5A, GAL_CLOCK_E1E5B
+        fnav = bool(eph.data_source & GAL_CLOCK_E1E5A) and not (eph.data_source & GAL_CLOCK_E1E5B)
+        return 0.0 if fnav else eph.tgd2 - eph.tgd
+    return 0.0
+
+
 def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=None,
-          batched: bool = True) -> list[SppSolution]:
+          batched: bool = True, precise=None) -> list[SppSolution]:
     """SPP of every epoch, each started from the previous valid solution (the
     first from ``x0`` = [x, y, z, b], e.g. a RINEX header's approximate
     position; None = the Earth's centre).
@@ -288,13 +387,19 @@ def solve(epochs, store, cfg: SppConfig, counters: Counter | None = None, x0=Non
     where that gives what :func:`solve_epoch` gives; an epoch the batch does
     not settle (too few satellites, a RAIM alarm, no degree of freedom, no
     start yet, or the epoch after such one) is solved by :func:`solve_epoch`
-    from the previous solution, as before."""
+    from the previous solution, as before.
+
+    ``precise``: a :class:`~hyper_nav_gnss.orbits.precise.PreciseEphemeris`
+    whose orbits and clocks replace the broadcast ones for the systems it
+    holds (:func:`precise_states`); None = broadcast only."""
     counters = counters if counters is not None else Counter()
     out = []
     for a in range(0, len(epochs), BATCH_EPOCHS):
         block = epochs[a:a + BATCH_EPOCHS]
         obs_list = [satellite_observations(raw, store, cfg.model, counters, exclude=cfg.exclude) for raw in block]
         states = states_batch(obs_list)
+        if precise is not None:
+            obs_list, states = precise_states(obs_list, states, precise, counters)
         k0 = 0
         while batched and k0 < len(block) and (x0 is None or not np.all(np.isfinite(x0))):
             s = solve_epoch(block[k0], store, cfg, x0, counters, obs=obs_list[k0],      # no start yet: one by one

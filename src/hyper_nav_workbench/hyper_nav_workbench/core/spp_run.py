@@ -355,7 +355,7 @@ class _PostProcessingStore(EphemerisStore):
         return self._by_sat.get((system, int(prn)), [])
 
 
-def run_ours(inp: SppInput, cfg: spp_core.SppConfig) -> tuple[list, Counter, float]:
+def run_ours(inp: SppInput, cfg: spp_core.SppConfig, precise=None) -> tuple[list, Counter, float]:
     store = _PostProcessingStore()          # records are added below with no reception time: the same choice
     counts = Counter()
     for e in inp.records:
@@ -370,8 +370,50 @@ def run_ours(inp: SppInput, cfg: spp_core.SppConfig) -> tuple[list, Counter, flo
     if xyz is not None and np.linalg.norm(xyz) > 6.0e6:         # the header's approximate position as the start
         x0 = np.r_[np.asarray(xyz, float), 0.0]
     t0 = time.perf_counter()
-    sols = spp_core.solve(inp.epochs, store, cfg, counts, x0)
+    sols = spp_core.solve(inp.epochs, store, cfg, counts, x0, precise=precise)
     return sols, counts, time.perf_counter() - t0
+
+
+def load_precise(sp3_path, clk_path=None, epochs=(), atx_path=None):
+    """The precise product of ``--sp3 FILE [--clk FILE] [--atx FILE]`` (hyper_nav_gnss/orbits/precise.py), refused
+    (ConfigError naming both spans, GPST) unless it covers the observation span of ``epochs``."""
+    from hyper_nav_gnss.formats.sp3 import read_sp3
+    from hyper_nav_gnss.orbits.precise import PreciseEphemeris
+    clocks = None
+    if clk_path:
+        from hyper_nav_gnss.formats.rinex_clk import read_rinex_clk
+        clocks = read_rinex_clk(clk_path)
+    antennas = None
+    if atx_path:
+        from hyper_nav_gnss.formats.antex import read_antex
+        antennas = read_antex(atx_path)
+    pe = PreciseEphemeris(read_sp3(sp3_path), clocks, antennas=antennas)
+    if epochs:
+        t0, t1 = float(epochs[0].t_rx_gpst_s), float(epochs[-1].t_rx_gpst_s)
+        a, b = pe.span_gpst_s
+        if t0 < a or t1 > b:
+            what = f"{pe.orbits.source}" + (f" with {pe.clocks.source}" if clk_path else "")
+            raise ConfigError(f"--sp3: {what} covers {_gpst_span(a, b)}, the observations span {_gpst_span(t0, t1)}: "
+                              f"the product does not cover the observation span (give the product of the "
+                              f"observation day)")
+    return pe
+
+
+def _gpst_span(a: float, b: float) -> str:
+    from datetime import datetime, timedelta
+    g = datetime(1980, 1, 6)
+    f = "%Y-%m-%d %H:%M:%S"
+    return f"{(g + timedelta(seconds=a)).strftime(f)} .. {(g + timedelta(seconds=b)).strftime(f)} GPST"
+
+
+def precise_note(pe) -> str:
+    """One line naming the precise orbits and clocks used (the .pos header, spp.json, the terminal)."""
+    o = pe.orbits
+    clk = (f"clocks {pe.clocks.source}" if pe.clocks.source != o.source else "clocks of the SP3")
+    ant = (f"satellite antenna offsets {pe.antennas.source}" if pe.antennas is not None
+           else "NO satellite antenna offsets")
+    return (f"precise SP3-{o.version} {o.source} ({o.agency} {o.orbit_type}, {o.frame}, {o.interval_s:g} s, "
+            f"{_gpst_span(*o.span_gpst_s)}; systems {''.join(pe.systems)}), {clk}, {ant}; other systems broadcast")
 
 
 def run_rtklib(inp: SppInput, cfg: spp_core.SppConfig, times_gpst_s, elmask_deg: float):
@@ -392,8 +434,11 @@ def run_rtklib(inp: SppInput, cfg: spp_core.SppConfig, times_gpst_s, elmask_deg:
     return sol, time.perf_counter() - t0
 
 
-def evaluate(inp: SppInput, doc: dict, ref: Reference | None, with_rtklib: bool, progress=None) -> dict:
-    """Every run, RTKLIB beside it, scored on common epochs; the result dict of the command."""
+def evaluate(inp: SppInput, doc: dict, ref: Reference | None, with_rtklib: bool, progress=None,
+             precise=None) -> dict:
+    """Every run, RTKLIB beside it, scored on common epochs; the result dict of the command.
+    ``precise``: a PreciseEphemeris used for the systems it holds (hyper_nav_gnss/positioning/spp.py
+    ``precise_states``; RTKLIB beside stays on broadcast orbits)."""
     s = doc.get("spp") or {}
     runs = s.get("runs") or DEFAULT_RUNS
     mask = float(s.get("elevation_mask_deg", 10.0))
@@ -404,11 +449,12 @@ def evaluate(inp: SppInput, doc: dict, ref: Reference | None, with_rtklib: bool,
         cfg = run_config(doc, name, run)
         if progress:
             progress(f"run {name}")
-        sols, counts, wall = run_ours(inp, cfg)
+        sols, counts, wall = run_ours(inp, cfg, precise)
         t = np.array([x.t_rx_gpst_s for x in sols])
         valid = np.array([x.valid for x in sols])
         pos = np.array([x.pos_ecef_m for x in sols]).reshape(-1, 3)
         r = {"signals": {k: ["+".join(c) for c in v] for k, v in cfg.model.plan.items()},
+             **({"orbits": precise_note(precise)} if precise is not None else {}),
              "weighting": cfg.model.errors.weighting, "p_fa": cfg.p_fa, "elevation_mask_deg": mask,
              "wall_s": wall, "ms_per_epoch": 1e3 * wall / max(len(sols), 1), "counts": dict(counts),
              "status": dict(Counter(x.status for x in sols)),
@@ -419,6 +465,11 @@ def evaluate(inp: SppInput, doc: dict, ref: Reference | None, with_rtklib: bool,
         single = sorted({k for k, v in cfg.model.plan.items() for c in v if len(c) == 1})
         r["warnings"] = [f"no Klobuchar set for {k} in the navigation data: its single-frequency signals run "
                          f"WITHOUT an ionosphere model (metres of error)" for k in single if k not in (inp.iono or {})]
+        if precise is not None and precise.antennas is None:
+            r["warnings"].append(
+                "precise orbits without --atx: the satellites' antenna phase-centre offsets are not applied (SP3 "
+                "orbits are centres of mass; broadcast minus precise along nadir measured 0.6-1.6 m by GPS "
+                "satellite on 2021-04-28): decimetre-to-metre errors")
         series = {"t_gpst_s": t.tolist(), "valid": valid.tolist(),
                   "clock_bias_m": [x.clock_bias_m for x in sols],
                   "isb_m": [x.isb_m for x in sols], "n_used": [x.n_used for x in sols],
