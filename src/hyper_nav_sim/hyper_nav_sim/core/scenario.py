@@ -350,7 +350,7 @@ class Scenario:
         defaults to ``white``, everywhere else to the filter's own default
         (``states``: the range errors the corrections leave are correlated)."""
         cfg = dict(self.data.get("filter", {}).get("config", {}) or {})
-        if (self.data.get("world") or {}).get("model") == "perfect":
+        if not self.world_config().realistic:           # the world has no correlated range errors
             cfg.setdefault("range_errors", "white")
         return FilterConfig.from_dict(cfg)
 
