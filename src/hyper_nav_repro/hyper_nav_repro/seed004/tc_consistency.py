@@ -26,7 +26,7 @@ errors left after the receiver's corrections on the seed 004 flight
 structure function, i.e. what sigma and tau of a Gauss-Markov model fit.
 
     ros2run hyper_nav_repro tc_consistency --seeds 5 --measure --out results/tc_consistency
-    ros2run hyper_nav_repro tc_consistency --seeds 3 --variants a --configs defaults --duration 60   # short
+    ros2run hyper_nav_repro tc_consistency --seeds 3 --variants a --configs before,defaults --duration 60   # short
 """
 from __future__ import annotations
 
@@ -171,6 +171,10 @@ def main(argv=None) -> int:
     seeds = list(range(1, a.seeds + 1))
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
+    for opt, given, known in (("--configs", a.configs, CONFIGS), ("--variants", a.variants, VARIANTS)):
+        bad = [k for k in given.split(",") if k not in known]
+        if bad:
+            ap.error(f"{opt}: unknown {bad[0]!r} (known: {', '.join(known)})")
     configs = {k: CONFIGS[k] for k in a.configs.split(",")}
     doc = {"seeds": seeds, "configs": configs}
     if a.measure:

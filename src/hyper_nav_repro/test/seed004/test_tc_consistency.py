@@ -15,6 +15,14 @@ def test_anees_band_is_the_chi_square_band_over_runs():
     assert tc.anees_band(1) == pytest.approx((0.2158, 9.3484), abs=1e-4)
 
 
+def test_unknown_configuration_or_variant_is_refused_with_the_known_names(capsys):
+    for args, named in ((["--configs", "befor"], "'befor' (known: before, after, defaults)"),
+                        (["--variants", "a,b"], "'b' (known: a, loss_120s)")):
+        with pytest.raises(SystemExit) as exc:
+            tc.main(args)
+        assert exc.value.code == 2 and named in capsys.readouterr().err
+
+
 @pytest.mark.slow
 def test_range_bias_states_bring_the_nees_into_the_band_on_a_short_flight():
     res = tc.run([1], variants={"a": ("a", None)}, duration_s=40.0, log=lambda *a: None)
