@@ -559,7 +559,7 @@ class TightGnssInput:
         for raw in self.ready(engine.t_latest_s):
             # a stale epoch (before the filter's start, or behind its window) is refused by the engine and
             # counted there; it must not take range-bias slots either, or the solution would depend on how
-            # many such epochs a run received (live: fewer before the first IMU sample than the bag holds;
+            # many such epochs a run received (a live node may get fewer of them than the bag holds;
             # measured on the walk: 52 pre-start epochs moved velocities by 2e-13 m/s, live != offline)
             for m in self.measurements(raw, None if engine.is_stale(float(raw.t_s)) else cfg):
                 ok, _ = engine.add_measurement(m)
