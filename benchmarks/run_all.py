@@ -67,7 +67,10 @@ CONFIGS = [  # label, scenario, extra filter fields, scenario overrides, measure
     ("LCI 15 (default in the launch-centred inertial frame)", "default", {"mechanization_frame": "LCI"}, {}, None),
     ("LCI 21 (seed 001, BDS 1 Hz)", "seed001", {}, {}, None),
     ("ENU 15 loosely coupled (seed 004: 100 Hz IMU, GNSS 1 Hz)", "seed004", {}, {}, None),
-    ("ENU 17 tightly coupled (seed 004, pseudoranges + rates)", "seed004_tight", {}, {}, None),
+    # white range errors: the paper's 17 states (the scenario's filter before issue 37 item 5)
+    ("ENU 17 tightly coupled (seed 004, pseudoranges + rates)", "seed004_tight", {},
+     {"filter.config.range_errors": "white"}, None),
+    ("ENU 49 tightly coupled + range-bias states rb32 (seed 004 default)", "seed004_tight", {}, {}, None),
     ("ENU 24 elastic lever arm (seed 000)", "seed000_elastic", {}, {}, None),
 ]
 RATES_HZ = (50.0, 100.0, 200.0, 500.0)

@@ -435,7 +435,7 @@ class FusionEngine:
         kind, t = event.kind, event.t_s
         if not math.isfinite(t):
             return self._reject(f"{kind}_nan")
-        if t <= self._window_start_s():
+        if self.is_stale(t):
             return self._reject(f"{kind}_stale")
         if t <= self._last_released_t + _tol(self._last_released_t):
             # still applied, but solutions already released did not see it:
@@ -615,6 +615,11 @@ class FusionEngine:
     def _reject(self, reason: str):
         self.counters[f"rejected_{reason}"] += 1
         return False, reason
+
+    def is_stale(self, t_s: float) -> bool:
+        """An event at ``t_s`` would be refused as stale (at or before the
+        window start): a source can leave such an epoch without side effects."""
+        return t_s <= self._window_start_s()
 
     def _window_start_s(self) -> float:
         """Epoch of the state the window starts from: events at or before it are stale."""

@@ -7,7 +7,8 @@ Data: simulated world (seed004_virtual flight, realistic-world receiver
 errors), the sheath profile ``--blackout`` (default 50 dB: ramp in 90-130 s,
 hold to 150 s, ramp out to 190 s). The tightly coupled filter is flown with
 ``--filter after`` (default: the range-bias states and thermal weighting that
-``tc_consistency`` found consistent) or ``before`` (the scenario's own).
+``tc_consistency`` found consistent) or ``before`` (the scenario's filter
+before issue 37 item 5: white pseudorange errors, ``tc_consistency.BEFORE``).
 
 Reported per case: horizontal error 5 s after the sheath's end (goal: within
 2x case (a)), the share of the blackout-and-after epochs where the seed-mean
@@ -68,10 +69,8 @@ def _filter_overrides(name, aiding_delay_s=None):
         "filter.config.output_delay_s": float(aiding_delay_s),
         "filter.sources.gnss_raw.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s),
         "filter.sources.gnss_virtual.ephemeris_wait_s": min(0.05, 0.5 * aiding_delay_s)}
-    if name == "before":
-        return d
-    from hyper_nav_repro.seed004.tc_consistency import AFTER
-    return {**AFTER, **d}
+    from hyper_nav_repro.seed004.tc_consistency import AFTER, BEFORE
+    return {**(BEFORE if name == "before" else AFTER), **d}
 
 
 def pullup_locks(epochs, t0_s, t1_s):

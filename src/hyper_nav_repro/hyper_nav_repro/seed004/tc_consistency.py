@@ -4,13 +4,18 @@ the whole flight, and of a lock loss from 120 s (INS coasting after it),
 flown through the fusion core exactly as ``repro_seed004`` flies them
 (``seed004.cases``), for two filter configurations:
 
-* ``before``: the scenario's own (seed004_virtual: 17 states, pseudoranges
-  weighted with the receiver's thermal sigma x ``sigma_scale`` 8, white);
+* ``before``: the scenario's filter before issue 37 item 5 (``BEFORE``: 17
+  states, ``filter.config.range_errors: white``, pseudoranges weighted with
+  the receiver's thermal sigma x ``sigma_scale`` 8);
 * ``after``: the range errors the receiver's corrections leave modelled as
-  per-satellite first-order Gauss-Markov range-bias states (``rb``,
-  ``core.blocks.range_bias``; sigma and correlation time measured on the
-  simulated world by ``--measure``), the pseudoranges weighted with the
-  thermal sigma alone (``sigma_scale`` 1).
+  per-satellite first-order Gauss-Markov range-bias states (``AFTER``: ``rb``,
+  16 slots, ``core.blocks.range_bias``; sigma and correlation time measured on
+  the simulated world by ``--measure``), the pseudoranges weighted with the
+  thermal sigma alone (``sigma_scale`` 1): the configuration measured first;
+* ``defaults``: the scenario as it is, nothing set: since issue 37 item 5 the
+  filter's defaults (``range_errors: states``, which adds the ``rb32`` block
+  with ``range_bias_sigma_m`` / ``range_bias_tau_s`` at their declared
+  defaults, the values ``after`` measured) and the scenario's ``sigma_scale`` 1.
 
 ANEES over N runs (seeds) per epoch, with the two-sided 95 % chi-square band
 of 3N degrees of freedom divided by N; printed: the flight mean of ANEES,
@@ -20,7 +25,8 @@ errors left after the receiver's corrections on the seed 004 flight
 (noise-free receiver, common mode removed: the clock takes it): RMS and the
 structure function, i.e. what sigma and tau of a Gauss-Markov model fit.
 
-    ros2run hyper_nav_repro tc_consistency --seeds 3 --out results/tc_consistency
+    ros2run hyper_nav_repro tc_consistency --seeds 5 --measure --out results/tc_consistency
+    ros2run hyper_nav_repro tc_consistency --seeds 3 --variants a --configs before,defaults --duration 60   # short
 """
 from __future__ import annotations
 
@@ -41,10 +47,11 @@ from hyper_nav_aiding.virtual_gnss.offline import prepare
 
 from .cases import run_case
 
+BEFORE = {"filter.config.range_errors": "white", "filter.sources.gnss_raw.sigma_scale": 8.0}
 AFTER = {"filter.config.state_blocks": ["att", "vel", "pos", "bg", "ba", "clk", "rb"],
          "filter.config.range_bias_sigma_m": 2.2, "filter.config.range_bias_tau_s": 1500.0,
          "filter.sources.gnss_raw.sigma_scale": 1.0}
-CONFIGS = {"before": {}, "after": AFTER}
+CONFIGS = {"before": BEFORE, "after": AFTER, "defaults": {}}
 VARIANTS = {"a": ("a", None), "loss_120s": ("d", 120.0)}
 
 
@@ -116,7 +123,7 @@ def run(seeds, configs=CONFIGS, variants=VARIANTS, duration_s=None, log=print) -
                 r = run_case(replace(fl, sc=sc), case)
                 h = np.hypot(r.pos_err_enu_m[:, 0], r.pos_err_enu_m[:, 1])
                 res[cname][vname].append({"t_s": r.t_s, "nees": r.nees_pos, "h": h, "v": np.abs(r.pos_err_enu_m[:, 2]),
-                                          "sigma": r.pos_sigma_m, "gate": {k: [int(x[0]), int(x[1])]
+                                          "sigma": r.pos_sigma_m, "wall_s": r.wall_s, "gate": {k: [int(x[0]), int(x[1])]
                                                                            for k, x in r.stats.items()}})
                 log(f"  {cname:6s} {r.wall_s:5.0f} s: mean NEES {np.mean(r.nees_pos):9.2f}, pos RMS H "
                     f"{np.sqrt(np.mean(h ** 2)):.2f} V {np.sqrt(np.mean(r.pos_err_enu_m[:, 2] ** 2)):.2f} m, "
@@ -139,6 +146,12 @@ def summarize(res: dict) -> dict:
                 "share_above_band": float(np.mean(anees > hi)), "share_below_band": float(np.mean(anees < lo)),
                 "anees_median": float(np.median(anees)),
                 "mean_nees_per_seed": [float(np.mean(r["nees"])) for r in runs],
+                "mean_nees_over_seeds": float(np.mean([np.mean(r["nees"]) for r in runs])),
+                "std_nees_over_seeds": float(np.std([np.mean(r["nees"]) for r in runs], ddof=1)) if len(runs) > 1
+                else 0.0,
+                "pos_rms_h_m_per_seed": [float(np.sqrt(np.mean(r["h"] ** 2))) for r in runs],
+                "pos_rms_v_m_per_seed": [float(np.sqrt(np.mean(r["v"] ** 2))) for r in runs],
+                "wall_s_per_seed": [float(r["wall_s"]) for r in runs],
                 "pos_rms_h_m": float(np.sqrt(np.mean([np.mean(r["h"] ** 2) for r in runs]))),
                 "pos_rms_v_m": float(np.sqrt(np.mean([np.mean(r["v"] ** 2) for r in runs]))),
                 "mean_sigma_m": float(np.mean([np.mean(r["sigma"]) for r in runs]))}
@@ -150,24 +163,32 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--duration", type=float, default=None, help="flight duration (s; default the scenario's 500 s)")
     ap.add_argument("--variants", default=",".join(VARIANTS))
+    ap.add_argument("--configs", default=",".join(CONFIGS), help="filter configurations to fly (default all: "
+                    + ", ".join(CONFIGS) + ")")
     ap.add_argument("--measure", action="store_true", help="first measure the range-error statistics")
     ap.add_argument("--out", default="results/tc_consistency")
     a = ap.parse_args(argv)
     seeds = list(range(1, a.seeds + 1))
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    doc = {"seeds": seeds, "configs": {k: v for k, v in CONFIGS.items()}}
+    for opt, given, known in (("--configs", a.configs, CONFIGS), ("--variants", a.variants, VARIANTS)):
+        bad = [k for k in given.split(",") if k not in known]
+        if bad:
+            ap.error(f"{opt}: unknown {bad[0]!r} (known: {', '.join(known)})")
+    configs = {k: CONFIGS[k] for k in a.configs.split(",")}
+    doc = {"seeds": seeds, "configs": configs}
     if a.measure:
         doc["range_errors"] = measure_range_errors(seeds)
     variants = {k: VARIANTS[k] for k in a.variants.split(",")}
-    res = run(seeds, CONFIGS, variants, a.duration)
+    res = run(seeds, configs, variants, a.duration)
     doc["summary"] = summarize(res)
     for c, by_v in doc["summary"].items():
         for v, s in by_v.items():
             print(f"{c:6s} {v:10s}: ANEES flight mean {s['anees_flight_mean']:8.2f} (band {s['anees_band_95'][0]:.2f}-"
                   f"{s['anees_band_95'][1]:.2f} for {s['runs']} runs), median {s['anees_median']:.2f}, epochs in band "
                   f"{100 * s['share_of_epochs_in_band']:.0f} % (above {100 * s['share_above_band']:.0f} %), per seed "
-                  f"{[round(x, 2) for x in s['mean_nees_per_seed']]}; pos RMS H {s['pos_rms_h_m']:.2f} "
+                  f"{[round(x, 2) for x in s['mean_nees_per_seed']]} (mean {s['mean_nees_over_seeds']:.2f}, std "
+                  f"{s['std_nees_over_seeds']:.2f}); pos RMS H {s['pos_rms_h_m']:.2f} "
                   f"V {s['pos_rms_v_m']:.2f} m, mean sigma {s['mean_sigma_m']:.2f} m")
     (out / "tc_consistency.json").write_text(json.dumps(doc, indent=1))
     print(f"wrote {out / 'tc_consistency.json'}")

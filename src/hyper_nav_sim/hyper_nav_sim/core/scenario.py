@@ -344,7 +344,15 @@ class Scenario:
         return initial_state(self.filter_initial_values())
 
     def filter_config(self) -> FilterConfig:
-        return FilterConfig.from_dict(self.data.get("filter", {}).get("config", {}))
+        """``filter.config``; in the perfect-model world (``world.model:
+        perfect``: the truth is the receiver's broadcast models, the only
+        pseudorange error the receiver's white noise) ``range_errors``
+        defaults to ``white``, everywhere else to the filter's own default
+        (``states``: the range errors the corrections leave are correlated)."""
+        cfg = dict(self.data.get("filter", {}).get("config", {}) or {})
+        if not self.world_config().realistic:           # the world has no correlated range errors
+            cfg.setdefault("range_errors", "white")
+        return FilterConfig.from_dict(cfg)
 
     def filter_sources(self) -> dict:
         """The fusion node's declared sources (``filter.sources``; default: IMU
