@@ -10,6 +10,8 @@ stack 0.17 s.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -20,6 +22,35 @@ def states_from_topic(truth) -> dict:
     return {"t": truth.stamp_s, "lat": truth["lat_rad"].astype(float), "lon": truth["lon_rad"].astype(float),
             "alt": truth["alt_m"].astype(float), "vel": truth["vel_enu_mps"].astype(float).reshape(-1, 3),
             "C": Rotation.from_quat(q).as_matrix() if len(q) else np.zeros((0, 3, 3))}
+
+
+# libm's atan2 and hypot element by element (numpy's own loops run them in C over the array): numpy's SIMD
+# arctan2 and hypot differ from libm in the last bit (AVX-512 machine, numpy 2.2: arctan2 on 7 % of random
+# arguments, hypot on 0.6 %), which moves 9th decimals of the .nav text
+_atan2 = np.frompyfunc(math.atan2, 2, 1)
+_hypot = np.frompyfunc(math.hypot, 2, 1)
+
+
+def euler_rows(C_b_n) -> np.ndarray:
+    """(n, 3) roll, pitch, heading (rad, heading in [0, 2 pi)) of a stack of
+    C_b_n (n, 3, 3): ``attitude.C_b_n_to_euler``'s closed form for one matrix,
+    applied column-wise with the same float operations in the same order, so
+    the same numbers bit for bit (scipy's stack, the function's own branch
+    for a stack, agrees to 1e-12 rad only). Peer-format set, 168,101
+    matrices: one call per matrix 0.34 s, this 0.05 s (cProfile)."""
+    C = np.asarray(C_b_n, float).reshape(-1, 3, 3)
+
+    def f(fn, a, b):
+        return fn(a, b).astype(float) if len(a) else np.zeros(0)
+    c_y = f(_hypot, C[:, 2, 1], C[:, 2, 2])
+    y = f(_atan2, -C[:, 2, 0], c_y)
+    ok = c_y > 1e-12
+    z = np.empty(len(C))
+    x = np.zeros(len(C))                       # gimbal lock: roll folded into heading, as scipy does
+    z[ok] = f(_atan2, C[ok, 1, 0], C[ok, 0, 0])
+    x[ok] = f(_atan2, C[ok, 2, 1], C[ok, 2, 2])
+    z[~ok] = f(_atan2, -C[~ok, 0, 1], C[~ok, 1, 1])
+    return np.column_stack([x, -y, (math.pi / 2 - z) % (2 * math.pi)])
 
 
 def format_rows(rows: np.ndarray, precision: int = 9) -> str:

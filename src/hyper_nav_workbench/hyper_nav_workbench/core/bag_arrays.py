@@ -84,6 +84,7 @@ try:                                   # compiled once, cached beside the module
     from numba import njit
     _walk = njit(cache=True, nogil=True)(_walk_py)
 except Exception:  # pragma: no cover - numba missing: the plain loop
+    njit = None
     _walk = _walk_py
 
 
@@ -96,6 +97,8 @@ def warm_up() -> None:
     ro = rec.copy()
     ro.setflags(write=False)
     walk_records(ro)
+    for b in (rec, ro):                # and the byte gather (``_gather``)
+        _gather(b, np.array([0, 1], np.int64), 2)
 
 
 def walk_records(buf: np.ndarray, pos: int = 0, end: int | None = None, compiled: bool = True):
@@ -181,6 +184,32 @@ def layout(msgtype: str, raw) -> tuple[list[Field], list[int]]:
     if 4 + end > len(raw):
         raise ValueError(f"{msgtype}: message of {len(raw)} bytes shorter than its layout ({4 + end})")
     return fields, prefixes
+
+
+def _gather_py(buf, offs, ln, out):
+    """out[i] = buf[offs[i]:offs[i] + ln] for every i (offsets checked by the caller)."""
+    for i in range(len(offs)):
+        o = offs[i]
+        for j in range(ln):
+            out[i, j] = buf[o + j]
+
+
+_gather_c = njit(cache=True, nogil=True)(_gather_py) if njit is not None else None
+
+
+def _gather(buf: np.ndarray, offs: np.ndarray, ln: int) -> np.ndarray:
+    """(len(offs), ln) block of the bytes buf[o:o + ln] of each offset o: a
+    compiled copy loop (``_gather_py``), else, or for offsets outside buf
+    (raised as the index gather raises), the index gather
+    buf[offs[:, None] + arange(ln)] (the same bytes; peer-format bag,
+    1.35 M messages: the index gather 1.6 s of a 2.5 s read, CPU, same run).
+    """
+    n = len(offs)
+    if _gather_c is not None and n and int(offs.min()) >= 0 and int(offs.max()) + ln <= len(buf):
+        out = np.empty((n, ln), np.uint8)
+        _gather_c(buf, np.ascontiguousarray(offs, np.int64), int(ln), out)
+        return out
+    return buf[offs[:, None] + np.arange(ln)]
 
 
 def _columns(rows: np.ndarray, fields: list[Field]) -> dict:
@@ -314,7 +343,7 @@ class _Collector:
 
     def messages(self, buf, offs: np.ndarray, lens: np.ndarray) -> None:
         """Messages (body offsets, lengths) of one buffer into field columns."""
-        head = buf[offs[:, None] + np.arange(22)]
+        head = _gather(buf, offs, 22)
         cid = head[:, 0:2].copy().view("<u2").ravel()
         t_ns = head[:, 6:14].copy().view("<u8").ravel().astype(np.int64)
         seq = self.n_seen + np.arange(len(offs), dtype=np.int64)
@@ -329,7 +358,7 @@ class _Collector:
             on_c = cid == c
             for ln in np.unique(dlen[on_c]).tolist():
                 sel = np.flatnonzero(on_c & (dlen == ln))
-                rows = buf[(offs[sel] + 22)[:, None] + np.arange(ln)]
+                rows = _gather(buf, offs[sel] + 22, ln)
                 self._group(c, msgtype, ln, rows, t_ns[sel], seq[sel])
 
     def _group(self, c, msgtype, ln, rows, t_ns, seq) -> None:
@@ -360,6 +389,8 @@ class _Collector:
             t = np.concatenate([p[0] for p in parts])
             s = np.concatenate([p[1] for p in parts])
             order = np.lexsort((s, t))               # log time, ties in file order
+            if len(order) and (order[1:] > order[:-1]).all():
+                order = None                         # in order already (a recording's usual case): no gather
             cols = {}
             paths = dict.fromkeys(path for p in parts for path in p[2])
             for path in paths:
@@ -371,8 +402,9 @@ class _Collector:
                     col[:] = flat
                 else:
                     col = np.concatenate(pieces)
-                cols[path] = col[order]
-            out[topic] = TopicArrays(topic, msgtype, t[order], s[order], cols)
+                cols[path] = col if order is None else col[order]
+            out[topic] = TopicArrays(topic, msgtype, t, s, cols) if order is None else \
+                TopicArrays(topic, msgtype, t[order], s[order], cols)
         return out
 
 
