@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import bisect
 import math
-import operator
 from collections import Counter
 
 import numpy as np
@@ -176,21 +175,19 @@ class CurrentSolution(Solution):
 
 def _lazy_source(sols):
     """The filter all of ``sols`` are lazy views of (``Solution.of`` /
-    ``CurrentSolution.of_prediction``, not yet read), else None. The checks
-    run as C-level maps over the list (672,400 current-time states: a Python
-    loop 0.07 s per call, cProfile)."""
-    if not sols or not set(map(type, sols)) <= _LAZY_TYPES:
+    ``CurrentSolution.of_prediction``, not yet read), else None."""
+    if not sols:
         return None
-    srcs = list(map(_get_src, sols))
-    if None in srcs or list(map(_get_state, sols)).count(None) != len(sols):     # (read already: no view)
-        return None
-    kfs = set(map(id, map(_first, srcs)))
-    return srcs[0][0] if len(kfs) == 1 else None
-
-
-_LAZY_TYPES = frozenset((Solution, CurrentSolution))
-_get_src, _get_state, _get_t, _first = (operator.attrgetter("_src"), operator.attrgetter("_state"),
-                                        operator.attrgetter("t_s"), operator.itemgetter(0))
+    kf = None
+    for s in sols:
+        src = getattr(s, "_src", None)
+        if src is None or s._state is not None or type(s) not in (Solution, CurrentSolution):
+            return None
+        if kf is None:
+            kf = src[0]
+        elif src[0] is not kf:
+            return None
+    return kf
 
 
 def solution_arrays(sols) -> dict | None:
@@ -203,8 +200,8 @@ def solution_arrays(sols) -> dict | None:
     view_rows = getattr(kf.frame, "view_rows", None) if kf is not None else None
     if view_rows is None:
         return None
-    out = {"t": np.fromiter(map(_get_t, sols), float, len(sols))}
-    out.update(view_rows(np.array([src[1].x_nav for src in map(_get_src, sols)])))
+    out = {"t": np.array([s.t_s for s in sols])}
+    out.update(view_rows(np.array([s._src[1].x_nav for s in sols])))
     return out
 
 

@@ -202,7 +202,8 @@ def _gather(buf: np.ndarray, offs: np.ndarray, ln: int) -> np.ndarray:
     compiled copy loop (``_gather_py``), else, or for offsets outside buf
     (raised as the index gather raises), the index gather
     buf[offs[:, None] + arange(ln)] (the same bytes; peer-format bag,
-    1.35 M messages: the index gather 1.6 s of a 2.5 s read, CPU, same run).
+    1.35 M messages: ``read_arrays`` 2.06 s -> 0.81 s CPU with this and
+    no reorder gather for topics in order, same process, the same arrays).
     """
     n = len(offs)
     if _gather_c is not None and n and int(offs.min()) >= 0 and int(offs.max()) + ln <= len(buf):
