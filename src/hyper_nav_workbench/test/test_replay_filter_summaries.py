@@ -127,3 +127,17 @@ def test_byte_gather_equals_the_index_gather():
         assert np.array_equal(_gather(ro, offs, 40), ref)
     with pytest.raises(IndexError):             # past the end: raised as the index gather raises
         _gather(buf, np.array([4990], np.int64), 40)
+
+
+def test_byte_scatter_equals_the_index_assignment():
+    from hyper_nav_workbench.core.bag_arrays import _scatter
+    rng = np.random.default_rng(8)
+    rows = rng.integers(0, 256, (120, 31)).astype(np.uint8)
+    for offs in (np.arange(0, 120 * 40, 40), np.sort(rng.choice(4000, 120, replace=False)) // 31 * 33):
+        offs = offs.astype(np.int64)
+        ref, got = np.zeros(5000, np.uint8), np.zeros(5000, np.uint8)
+        ref[offs[:, None] + np.arange(31)] = rows
+        _scatter(got, offs, rows)
+        assert np.array_equal(got, ref)
+    with pytest.raises(IndexError):
+        _scatter(np.zeros(100, np.uint8), np.array([80], np.int64), rows[:1])

@@ -97,8 +97,9 @@ def warm_up() -> None:
     ro = rec.copy()
     ro.setflags(write=False)
     walk_records(ro)
-    for b in (rec, ro):                # and the byte gather (``_gather``)
+    for b in (rec, ro):                # and the byte gather (``_gather``) and scatter (``_scatter``)
         _gather(b, np.array([0, 1], np.int64), 2)
+    _scatter(rec.copy(), np.array([0, 1], np.int64), np.zeros((2, 2), np.uint8))
 
 
 def walk_records(buf: np.ndarray, pos: int = 0, end: int | None = None, compiled: bool = True):
@@ -211,6 +212,31 @@ def _gather(buf: np.ndarray, offs: np.ndarray, ln: int) -> np.ndarray:
         _gather_c(buf, np.ascontiguousarray(offs, np.int64), int(ln), out)
         return out
     return buf[offs[:, None] + np.arange(ln)]
+
+
+def _scatter_py(out, offs, rows):
+    """out[offs[i]:offs[i] + rows.shape[1]] = rows[i] for every i (offsets checked by the caller)."""
+    ln = rows.shape[1]
+    for i in range(len(offs)):
+        o = offs[i]
+        for j in range(ln):
+            out[o + j] = rows[i, j]
+
+
+_scatter_c = njit(cache=True, nogil=True)(_scatter_py) if njit is not None else None
+
+
+def _scatter(out: np.ndarray, offs: np.ndarray, rows: np.ndarray) -> None:
+    """``_gather`` the other way (``write_arrays``): each row of ``rows`` (n, ln)
+    uint8 into ``out`` at its offset, by the compiled loop, else (or for
+    offsets outside out, raised as the index assignment raises) the index
+    assignment out[offs[:, None] + arange(ln)] = rows (the same bytes)."""
+    n, ln = rows.shape
+    if _scatter_c is not None and n and int(offs.min()) >= 0 and int(offs.max()) + ln <= len(out) \
+            and rows.dtype == np.uint8 and out.dtype == np.uint8 and out.flags.writeable:
+        _scatter_c(out, np.ascontiguousarray(offs, np.int64), np.ascontiguousarray(rows))
+        return
+    out[offs[:, None] + np.arange(ln)] = rows
 
 
 def _columns(rows: np.ndarray, fields: list[Field]) -> dict:
@@ -553,7 +579,7 @@ def write_arrays(path, topics: dict, chunk_size: int = 1 << 20) -> dict:
             head["log_time"] = t[sel]
             head["publish_time"] = t[sel]
             rec = np.hstack([head.view(np.uint8).reshape(len(sel), 31), blk])
-            data[(offs[sel])[:, None] + np.arange(rec.shape[1])] = rec
+            _scatter(data, offs[sel], rec)
             entries = np.empty((len(sel), 2), "<u8")
             entries[:, 0], entries[:, 1] = t[sel], offs[sel]
             index[i + 1] = entries
