@@ -63,6 +63,115 @@ def format_rows(rows: np.ndarray, precision: int = 9) -> str:
     return (line * rows.shape[0]) % tuple(rows.ravel().tolist())
 
 
+# ---- the same text, compiled (issue 41) ------------------------------------------------
+# '%.{p}f' % x is x's exact binary value rounded to p decimals. y = |x| 10^p in float64 is that value to half
+# an ulp (10^p exact for p <= 22: one rounding), so floor(y + 1/2) is its rounding unless y's fraction is
+# within 2^-50 y (at least 4 ulps) of 1/2; those, NaN, inf and |x| >= 2^22 are formatted by Python. The test
+# is the same exact float operations in the kernel and in ``_needs_python`` (which picks them beforehand).
+_FAST_ABS_MAX = 4194304.0          # 2^22: y < 2^52, where y + 1/2 is exact
+_TIE_MARGIN = 2.0 ** -50
+
+
+def _format_kernel_py(x, p, scale, fallback, fb_offs, out):
+    """The text of the rows of x (n, m), ``p`` decimals (``scale`` = 10.0**p),
+    values separated by ' ', rows ended by '\\n', into ``out``; ``fallback``
+    holds, concatenated, the Python text of each value ``_needs_python``
+    flags (``fb_offs`` its bounds, row-major order). Returns the bytes
+    written (out holds p + 10 per value plus the fallback text)."""
+    n = x.shape[0]
+    m = x.shape[1]
+    pos = 0
+    k = 0
+    tens = 1
+    for _ in range(p):
+        tens *= 10
+    digits = np.empty(24, np.uint8)
+    for i in range(n):
+        for j in range(m):
+            v = x[i, j]
+            a = abs(v)
+            fast = a < 4194304.0                     # _FAST_ABS_MAX (NaN compares False)
+            y = 0.0
+            if fast:
+                y = a * scale
+                if abs((y - math.floor(y)) - 0.5) <= y * 8.881784197001252e-16:     # _TIE_MARGIN
+                    fast = False
+            if fast:
+                N = np.int64(math.floor(y + 0.5))
+                if math.copysign(1.0, v) < 0.0:
+                    out[pos] = 45                    # '-'
+                    pos += 1
+                ip = N // tens
+                fp = N - ip * tens
+                nd = 0
+                if ip == 0:
+                    digits[0] = 48
+                    nd = 1
+                while ip > 0:
+                    digits[nd] = 48 + ip % 10
+                    ip //= 10
+                    nd += 1
+                for d in range(nd - 1, -1, -1):
+                    out[pos] = digits[d]
+                    pos += 1
+                if p > 0:
+                    out[pos] = 46                    # '.'
+                    pos += 1
+                    for d in range(p - 1, -1, -1):
+                        out[pos + d] = 48 + fp % 10
+                        fp //= 10
+                    pos += p
+            else:
+                a0, a1 = fb_offs[k], fb_offs[k + 1]
+                for q in range(a0, a1):
+                    out[pos] = fallback[q]
+                    pos += 1
+                k += 1
+            out[pos] = 10 if j == m - 1 else 32      # '\n' at the row's end, else ' '
+            pos += 1
+    return pos
+
+
+try:
+    from numba import njit as _njit
+    _format_kernel = _njit(cache=True, nogil=True)(_format_kernel_py)
+except Exception:  # pragma: no cover - numba missing: format_rows' one format operation
+    _format_kernel = None
+
+
+def _needs_python(x: np.ndarray, scale: float) -> np.ndarray:
+    """The values the kernel leaves to Python's formatting (its test, over the array)."""
+    a = np.abs(x)
+    with np.errstate(invalid="ignore"):
+        fast = a < _FAST_ABS_MAX
+        y = np.where(fast, a, 0.0) * scale
+        fast &= ~(np.abs((y - np.floor(y)) - 0.5) <= y * _TIE_MARGIN)
+    return ~fast
+
+
+def format_rows_compiled(rows: np.ndarray, precision: int = 9) -> bytes:
+    """``format_rows``' text, byte for byte, written by a compiled loop (the
+    digits of the exactly rounded value, see above) with Python's own
+    formatting for the values it cannot round surely. Peer-format set, .nav
+    and STD (168,101 x 11 and x 22): 0.31 and 0.60 s -> 0.065 and 0.14 s
+    CPU (same process, the same bytes)."""
+    rows = np.ascontiguousarray(rows, float)
+    if rows.ndim != 2 or not rows.size or _format_kernel is None or not 0 <= precision <= 15:
+        return format_rows(rows, precision).encode()
+    scale = float(10 ** precision)
+    flag = _needs_python(rows, scale)
+    fmt = f"%.{precision}f"
+    texts = [(fmt % v).encode() for v in rows[flag].tolist()]
+    fb = np.frombuffer(b"".join(texts), np.uint8) if texts else np.zeros(0, np.uint8)
+    offs = np.zeros(len(texts) + 1, np.int64)
+    if texts:
+        offs[1:] = np.cumsum([len(t) for t in texts])
+    out = np.empty(rows.size * (precision + 10) + len(fb), np.uint8)
+    n = _format_kernel(rows, precision, scale, fb, offs, out)
+    return out[:n].tobytes()
+
+
 def write_rows(path, rows: np.ndarray, precision: int = 9) -> None:
-    with open(path, "w") as f:
-        f.write(format_rows(rows, precision))
+    """``format_rows``' text into ``path`` (the compiled writer, the same bytes)."""
+    with open(path, "wb") as f:
+        f.write(format_rows_compiled(rows, precision))

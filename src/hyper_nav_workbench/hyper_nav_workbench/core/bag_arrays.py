@@ -100,6 +100,8 @@ def warm_up() -> None:
     for b in (rec, ro):                # and the byte gather (``_gather``) and scatter (``_scatter``)
         _gather(b, np.array([0, 1], np.int64), 2)
     _scatter(rec.copy(), np.array([0, 1], np.int64), np.zeros((2, 2), np.uint8))
+    from hyper_nav_workbench.core.array_io import format_rows_compiled
+    format_rows_compiled(np.zeros((1, 2)))        # and the text writer of replay_filter's .nav / STD
 
 
 def walk_records(buf: np.ndarray, pos: int = 0, end: int | None = None, compiled: bool = True):
