@@ -444,6 +444,21 @@ def _mcap_files(path: Path) -> list[Path]:
     return files
 
 
+def _file_bytes(f: Path) -> np.ndarray:
+    """The file's bytes as a read-only uint8 array mapped from the page cache
+    (the columns are copied out of it, nothing keeps the mapping); an empty
+    or unmappable file read whole instead. ``read_arrays`` of the
+    peer-format bag (473 MB) in a fresh process: with ``np.fromfile`` (a
+    copy into fresh pages) 2.1-2.6 s CPU, mapped 1.2-1.9 s (alternating,
+    the same arrays)."""
+    try:
+        if f.stat().st_size >= 8:
+            return np.asarray(np.memmap(f, np.uint8, mode="r"))
+    except (OSError, ValueError):
+        pass
+    return np.fromfile(f, np.uint8)
+
+
 def read_arrays(path, topics: Iterable[str] | None = None) -> BagArrays:
     """Read a bag directory (or one .mcap file) into per-topic field arrays;
     ``topics``: the topic names to keep (None: all). See the module docstring."""
@@ -452,7 +467,7 @@ def read_arrays(path, topics: Iterable[str] | None = None) -> BagArrays:
     col = _Collector(wanted)
     problems = []
     for f in _mcap_files(path):
-        data = np.fromfile(f, np.uint8)
+        data = _file_bytes(f)
         if bytes(data[:8]) != MCAP_MAGIC:
             problems.append(f"{f}: not an MCAP file (bad magic)")
             continue
