@@ -161,7 +161,14 @@ def run(data_dir, duration_s: float, reference_path: bool = False, peer: bool = 
     import peer_dataset
     imp = peer_dataset.write(data_dir, duration_s, log=log)
     d = pathlib.Path(data_dir)
-    work = pathlib.Path(work or tempfile.mkdtemp(prefix="hyper_nav_user_path_"))
+    if work is None:                  # a folder of our own (a bag and outputs, about 1 GB): removed after the run
+        import shutil
+        tmp = pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_user_path_"))
+        try:
+            return run(data_dir, duration_s, reference_path, peer, tmp, log, rebuild_peer)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    work = pathlib.Path(work)
     n_imu = sum(1 for _ in open(d / "imu.txt")) - 1
     out = {"data": str(d), "imu_epochs": n_imu, "machine": machine(), "load_before": os.getloadavg()[0]}
     out["import"] = timed(_py(IMPORT, imp, "--out", work / "bag"))

@@ -102,8 +102,15 @@ def truth_table(args):
 
 
 def sigma_blocks(sols, layout) -> dict:
-    """{block: (n, 3) 1-sigma} of the 3-element blocks of the solutions' covariance (ENU convention)."""
-    d = np.array([np.sqrt(np.maximum(np.diag(s.P), 0.0)) for s in sols])
+    """{block: (n, 3) 1-sigma} of the 3-element blocks of the solutions' covariance (ENU convention):
+    sqrt(max(diag(s.P), 0)) of each solution, the diagonals taken as views of the covariances
+    (``fusion.solution_covariances``: the same arrays as ``s.P``) and the root over the stack (peer-format set,
+    168,101 solutions: np.diag and the root per solution 0.47 s, this 0.18 s, CPU, same process)."""
+    from hyper_nav_filter.core.fusion import solution_covariances
+    Ps = solution_covariances(sols)
+    n = Ps[0].shape[0] if len(Ps) else 0
+    diag = np.array([P.diagonal() for P in Ps]).reshape(-1, n)
+    d = np.sqrt(np.maximum(diag, 0.0))
     return {name: d[:, layout.sl(name)] for name in layout.names if layout.sl(name).stop - layout.sl(name).start == 3}
 
 
@@ -274,23 +281,36 @@ def stream_summary(sols, truth_states, layout, skip_s: float) -> dict | None:
     """A stream of solutions at its own stamps after ``skip_s``: position /
     velocity RMS 3D, mean position and velocity NEES (3 dof, its own
     covariance). The NEES of all epochs in one stacked solve (672,400
-    current-time states: a solve per epoch took most of the command's time)."""
+    current-time states: a solve per epoch took most of the command's time),
+    the covariance blocks cut from each solution's P in one slice
+    (``cov_blocks``), the attitude errors not formed (not used here)."""
     from hyper_nav_filter.core.fusion import solution_covariances
     sols = [x for x in sols if x.t_s >= skip_s]
     if not sols or truth_states is None:
         return None
     try:
-        err, rows = scoring.errors(scoring.states_from_solutions(sols), truth_states, index=True)
+        err, rows = scoring.errors(scoring.states_from_solutions(sols), truth_states, index=True, attitude=False)
     except ValueError:
         return None
-    p, v = layout.sl("pos"), layout.sl("vel")
-    Ps = solution_covariances([sols[i] for i in rows.tolist()])
+    S_p, S_v = cov_blocks(solution_covariances([sols[i] for i in rows.tolist()]), layout.sl("pos"), layout.sl("vel"))
     ep, ev = err["pos_enu_m"], err["vel_enu_mps"]
-    nees_p = _nees(np.array([P[p, p] for P in Ps]), ep)
-    nees_v = _nees(np.array([P[v, v] for P in Ps]), ev)
+    nees_p = _nees(S_p, ep)
+    nees_v = _nees(S_v, ev)
     return {"epochs": len(err["t"]), "pos_rms_3d_m": float(np.sqrt(np.mean(np.sum(ep ** 2, axis=1)))),
             "vel_rms_3d_mps": float(np.sqrt(np.mean(np.sum(ev ** 2, axis=1)))),
             "nees_pos_mean": float(np.mean(nees_p)), "nees_vel_mean": float(np.mean(nees_v))}
+
+
+def cov_blocks(Ps, *slices) -> list:
+    """[P[sl, sl] of every P in Ps, stacked (n, k, k)] for each slice: one
+    slice per matrix covering them all (the same numbers as a slice per block
+    and matrix; peer-format set, 672,400 current-time covariances, position
+    and velocity: 0.67 s -> 0.29 s, CPU, same process)."""
+    if not len(Ps):
+        return [np.zeros((0, sl.stop - sl.start, sl.stop - sl.start)) for sl in slices]
+    lo, hi = min(sl.start for sl in slices), max(sl.stop for sl in slices)
+    B = np.array([P[lo:hi, lo:hi] for P in Ps]).reshape(-1, hi - lo, hi - lo)
+    return [np.ascontiguousarray(B[:, sl.start - lo:sl.stop - lo, sl.start - lo:sl.stop - lo]) for sl in slices]
 
 
 def _nees(S: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -357,14 +377,13 @@ def _both_streams(bag, sols, current, truth_states, s: Setup, out) -> None:
 
 def _write_outputs(args, sols, nav: dict, s: Setup) -> None:
     """``--write-nav`` and ``--write-std`` (KF-GINS formats), one format operation per table."""
-    from hyper_nav_filter.core.attitude import C_b_n_to_euler
-
     from hyper_nav_workbench.core import array_io
     from hyper_nav_workbench.core.importer import kfgins
     if args.write_nav:
-        # the closed form per matrix (2 us each): scipy's stack agrees to 1e-12 rad, which moves the 9th
-        # decimal of 2 angles in 168,101 rows of the peer-format set; this writes the per-message text
-        rph = np.array([C_b_n_to_euler(C) for C in nav["C"]])
+        # the closed form (C_b_n_to_euler's, bit for bit) over the stack: scipy's stack agrees to 1e-12 rad,
+        # which moves the 9th decimal of 2 angles in 168,101 rows of the peer-format set; this writes the
+        # per-message text
+        rph = array_io.euler_rows(nav["C"])
         at = getattr(args, "write_nav_at", "imu")
         lat, lon, alt, vel = nav["lat"], nav["lon"], nav["alt"], nav["vel"]
         if at == "antenna":

@@ -201,3 +201,11 @@ def test_a_bag_of_the_array_writer_decodes_with_rosbags_and_mcap_ros2(imported_t
     assert imu.header.frame_id == "imu_link" and imu.angular_velocity.x == last["/imu/data_raw"].angular_velocity.x
     assert list(decoded["/gnss/fix"][-1].position_covariance) == list(last["/gnss/fix"].position_covariance)
     assert decoded["/truth/state"][-1].lat_rad == last["/truth/state"].lat_rad
+
+
+@pytest.mark.parametrize("content", [b"", b"\x89MCA", b"not an mcap file at all"])
+def test_an_empty_short_or_foreign_file_is_reported_not_read(tmp_path, content):
+    """(the file is mapped from the page cache when it can be: an empty or short one is read as before)"""
+    (tmp_path / "x.mcap").write_bytes(content)
+    got = bag_arrays.read_arrays(tmp_path)
+    assert got.topics == {} and got.truncated and "not an MCAP file (bad magic)" in got.error

@@ -72,25 +72,30 @@ def states_from_truth(tr) -> dict:
 
 
 # ---- errors -------------------------------------------------------------------------------
-def state_errors(nav: dict, truth: dict) -> dict:
+def state_errors(nav: dict, truth: dict, attitude: bool = True) -> dict:
     """Estimate - truth of two state sets at the same epochs (row by row):
-    {"t", "pos_enu_m" (N, 3), "vel_enu_mps" (N, 3), "att_enu_deg" (N, 3)}."""
+    {"t", "pos_enu_m" (N, 3), "vel_enu_mps" (N, 3), "att_enu_deg" (N, 3)}
+    (``attitude`` False: without "att_enu_deg", for a caller that needs
+    position and velocity only: the rotations are most of the cost)."""
     pos = earth.position_error_enu_m(nav["lat"], nav["lon"], nav["alt"], truth["lat"], truth["lon"], truth["alt"])
     vel = nav["vel"] - truth["vel"]
-    # attitude_error_n_rad for every row: the rotation vector of C_true C_est^T
-    att = Rotation.from_matrix(truth["C"] @ np.swapaxes(nav["C"], -1, -2)).as_rotvec() if len(nav["t"]) else \
-        np.zeros((0, 3))
-    return {"t": nav["t"], "pos_enu_m": np.asarray(pos).reshape(-1, 3), "vel_enu_mps": vel,
-            "att_enu_deg": np.rad2deg(att)}
+    out = {"t": nav["t"], "pos_enu_m": np.asarray(pos).reshape(-1, 3), "vel_enu_mps": vel}
+    if attitude:
+        # attitude_error_n_rad for every row: the rotation vector of C_true C_est^T
+        att = Rotation.from_matrix(truth["C"] @ np.swapaxes(nav["C"], -1, -2)).as_rotvec() if len(nav["t"]) else \
+            np.zeros((0, 3))
+        out["att_enu_deg"] = np.rad2deg(att)
+    return out
 
 
-def errors(nav: dict, truth: dict, index: bool = False):
+def errors(nav: dict, truth: dict, index: bool = False, attitude: bool = True):
     """Errors (estimate - truth) at the epochs both have (matched to 1 us; a
     repeated truth epoch: its last row), in time order whatever order the
     states came in (so every figure made from them, sums included, does not
     depend on the arrival order). Pairing by sorted keys: one array operation
     (672k epochs: 0.3 s; a Python dict per epoch took 2 s). ``index``: also
-    the row of ``nav`` of each error row, (errors, rows)."""
+    the row of ``nav`` of each error row, (errors, rows); ``attitude``: as
+    in ``state_errors``."""
     kt = np.round(np.asarray(truth["t"], float) * 1e6)
     order = np.argsort(kt, kind="stable")
     ks = kt[order]
@@ -103,7 +108,8 @@ def errors(nav: dict, truth: dict, index: bool = False):
     ti = order[j[found]]
     by_t = np.argsort(np.asarray(nav["t"], float)[ni], kind="stable")
     ni, ti = ni[by_t], ti[by_t]
-    err = state_errors({k: v[ni] for k, v in nav.items()}, {k: v[ti] for k, v in truth.items()})
+    keys = nav.keys() if attitude else [k for k in nav if k != "C"]
+    err = state_errors({k: nav[k][ni] for k in keys}, {k: truth[k][ti] for k in keys}, attitude)
     return (err, ni) if index else err
 
 
