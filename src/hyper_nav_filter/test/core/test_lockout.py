@@ -83,6 +83,30 @@ def test_no_recovery_when_the_nav_states_cannot_explain_the_innovation():
     assert (w.run, w.unexplained, w.recoveries) == (0, 1, 0) and math.isnan(w.t_run_start_s)
 
 
+def test_no_recovery_from_a_measurement_that_does_not_determine_its_blocks():
+    """One satellite's pseudorange and rate (2 rows: position and velocity
+    along one line of sight, as the aided-tracking blackout study's
+    one-satellite epoch at the sheath's end, 259 m and 134 m/s off): no
+    inflation, however far off (it was fitted by k = 2.4e9 and the solution
+    left by 26 km); the same residual as a 3-D position fix is taken back."""
+    cfg = FilterConfig.from_dict({"state_blocks": ["att", "vel", "pos", "bg", "ba"]})
+    lay = cfg.layout
+    P = np.eye(lay.dim) * 1e-4
+    los = np.array([0.36, 0.48, 0.8])
+    H = np.zeros((2, lay.dim))
+    H[0, lay.sl("pos")] = los
+    H[1, lay.sl("vel")] = los
+    R = np.diag([0.11 ** 2, 0.05 ** 2])
+    r = np.array([259.0, 134.0])
+    P1, k = lockout.inflation(P, H, R, r, lay, 1.0)
+    assert k == math.inf and P1 is P
+    assert not lockout.determines(H, lay, lockout.observed_states(P, H, lay))
+    H3 = np.zeros((3, lay.dim))
+    H3[:, lay.sl("pos")] = np.eye(3)
+    P3, k3 = lockout.inflation(P, H3, np.eye(3) * 0.11 ** 2, np.array([259.0, 0.0, 0.0]), lay, 1.0)
+    assert lockout.determines(H3, lay, lockout.observed_states(P, H3, lay)) and 1.0 < k3 < math.inf
+
+
 def test_unknown_recovery_is_refused():
     with pytest.raises(ConfigError, match="lockout_recovery"):
         FilterConfig.from_dict({"lockout_recovery": "reset_all"})
