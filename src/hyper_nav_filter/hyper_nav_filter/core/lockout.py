@@ -52,16 +52,17 @@ the target NIS/dof 0.01 instead of 1 (observed only, 5 s) changed little
   two capped inflations took the position variance to 2.4e23 m^2 and the
   state to NaN;
 * no recovery from a measurement that does not determine a whole
-  position or velocity block it observes (the rank of its H over the
-  block below 3: one satellite's pseudorange and rate, a height, a
-  horizontal fix): re-anchoring a block to such a measurement trusts a
-  gross error of its own, which nothing in the epoch can show. Found on
-  the aided-tracking blackout study (case 'virtual', 10 seeds): at the
-  sheath's end a one-satellite epoch (pseudorange 259 m and rate 134 m/s
-  off, its sigmas 0.11 m and 0.05 m/s) was fitted by k = 2.4e9 and the
-  solution left by 26 km (seed 9; 4.7 km seed 3); with this rule the
-  lock-out waits for an epoch that determines the blocks. Counted as
-  ``unexplained`` too;
+  position or velocity block it observes, beside the receiver clock it
+  observes too (``determines``: one to three satellites' pseudoranges
+  and rates, a height, a horizontal fix): re-anchoring a block to such a
+  measurement trusts a gross error of its own, which nothing in the
+  epoch can show. Found on the aided-tracking blackout study (case
+  'virtual', 10 seeds): near the sheath's end a one-satellite epoch
+  (pseudorange 259 m and rate 134 m/s off, sigmas 0.11 m and 0.05 m/s)
+  was fitted by k = 2.4e9 and the solution left by 26 km (seed 9), a
+  three-satellite one (347 m off) by k = 2e5 and 4.3 km (seed 3); with
+  this rule the lock-out waits for an epoch that determines the blocks.
+  Counted as ``unexplained`` too;
 * innovations beyond ``FAR_SIGMA`` of the measurement's own noise are
   counted per kind (``far``), accepted or not, for the verdict's
   'departure' rule;
@@ -150,16 +151,27 @@ def recovered(w: Watch, t_s: float, k: float) -> Watch:
     return w._replace(recoveries=w.recoveries + 1, t_last_recovery_s=t_s, last_factor=float(k))
 
 
+CLOCK_BLOCKS = ("clk", "isb")  # receiver clock and inter-system biases: observed by every range alike
+
+
 def determines(H: np.ndarray, layout, states: np.ndarray) -> bool:
     """Whether the measurement determines in full every position or
-    velocity block among the observed ``states`` (rank of H over the block =
-    its size), as a recovery that re-anchors the block needs (module
-    docstring)."""
+    velocity block among the observed ``states``, beside the receiver clock
+    it observes too: rank(H over block + clock) - rank(H over clock) = 3, as
+    a recovery that re-anchors the block needs (module docstring). Three
+    satellites' pseudoranges do not determine the position with the clock
+    unknown; four do; a position fix does (with or without a lever arm)."""
     chosen = set(np.asarray(states).tolist())
+    clock = [i for name in CLOCK_BLOCKS if layout.has(name) for i in range(layout.sl(name).start,
+                                                                          layout.sl(name).stop)
+             if np.any(H[:, i] != 0.0)]
+    r_clock = np.linalg.matrix_rank(H[:, clock]) if clock else 0
     for name in ("pos", "vel"):
         s = layout.sl(name)
-        if s.start in chosen and np.linalg.matrix_rank(H[:, s]) < s.stop - s.start:
-            return False
+        if s.start in chosen:
+            cols = list(range(s.start, s.stop)) + clock
+            if np.linalg.matrix_rank(H[:, cols]) - r_clock < s.stop - s.start:
+                return False
     return True
 
 
