@@ -1,14 +1,19 @@
 """Modules that moved when the packages were arranged by role (issue 34):
-an import of an old name fails with the new one named, instead of a bare
-``No module named``. Installed by ``hyper_nav_filter``, ``hyper_nav_sim``
+an import of an old name gives the module at its new home, with a
+FutureWarning naming it (a deprecation period), instead of a bare
+``No module named``; a module split in several fails naming its parts. Installed by ``hyper_nav_filter``, ``hyper_nav_sim``
 and ``hyper_nav_aiding`` on import (only names, no import of the new
 homes: the floors stay as they are). The table is the rename list of the
 move (``git diff --name-status -M`` over it) and a few hand entries where
 a module was split or merged."""
 from __future__ import annotations
 
+import importlib
 import importlib.abc
+import importlib.machinery
+import importlib.util
 import sys
+import warnings
 
 MOVED = {
     'hyper_nav_aiding.build_geomag_map': 'hyper_nav_aiding.geomag.build_map',
@@ -150,19 +155,51 @@ MOVED = {
 }
 
 
+class _Alias(importlib.abc.Loader):
+    """The old name bound to the module at its new home (the same object)."""
+
+    def __init__(self, new: str):
+        self.new = new
+
+    def create_module(self, spec):
+        return importlib.import_module(self.new)
+
+    def exec_module(self, module) -> None:
+        pass
+
+
+class _SplitPackage(importlib.abc.Loader):
+    """An old package whose modules went to several homes: an empty package,
+    so that its old submodule names reach their aliases."""
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module) -> None:
+        pass
+
+
 class MovedModuleFinder(importlib.abc.MetaPathFinder):
-    """Answers an import of a moved module with ModuleNotFoundError naming its new home."""
+    """Answers an import of a moved module with the module at its new home
+    under the old name (a FutureWarning names the new one: the old names
+    are kept for a deprecation period, so that scripts written against the
+    earlier layout, e.g. ``shared/regressions/late-fix-order/compare_orders.py``,
+    still run), and an old module split in several with a
+    ModuleNotFoundError naming where its parts went."""
 
     def find_spec(self, fullname, path=None, target=None):
         new = MOVED.get(fullname)
         if new is not None:
-            raise ModuleNotFoundError(f"No module named {fullname!r}: it moved to {new} (packages by role, "
-                                      "docs/architecture.md#packages-by-role)", name=fullname)
-        inside = sorted(k for k in MOVED if k.startswith(fullname + "."))
-        if inside:                                   # a package that was split up: name its first modules' homes
-            shown = ", ".join(f"{k} -> {MOVED[k]}" for k in inside[:3]) + (", ..." if len(inside) > 3 else "")
-            raise ModuleNotFoundError(f"No module named {fullname!r}: its modules moved ({shown}; packages by "
-                                      "role, docs/architecture.md#packages-by-role)", name=fullname)
+            if ", " in new:
+                raise ModuleNotFoundError(f"No module named {fullname!r}: it was split into {new} (packages by "
+                                          "role, docs/architecture.md#packages-by-role)", name=fullname)
+            warnings.warn(f"{fullname} moved to {new} (packages by role, docs/architecture.md#packages-by-role); "
+                          "the old name is an alias for a deprecation period", FutureWarning, stacklevel=2)
+            return importlib.machinery.ModuleSpec(fullname, _Alias(new),
+                                                  is_package=importlib.util.find_spec(new).submodule_search_locations
+                                                  is not None)
+        if any(k.startswith(fullname + ".") for k in MOVED):      # a package that was split up
+            return importlib.machinery.ModuleSpec(fullname, _SplitPackage(), is_package=True)
         return None
 
 
