@@ -6,6 +6,12 @@ guidance node's commands live, under the clock gate.
   bit, every command the guidance node sent equals the offline one, the truth
   node accepted them all (none refused, none missed), and the flight reached
   the target within the law's tolerance;
+* guidance on the fusion node's current-time state (``nav/state``, the
+  scenario's default): the sensor nodes fly the steered flight from
+  ``flight/steps`` (their IMU and GNSS messages are those of the flight the
+  truth node flew, bit for bit), nothing is lost, and the offline loop
+  (``closed_loop.fly_on_navigation``) fed the recorded late inputs where
+  they arrived gives the recorded commands and truth bit for bit;
 * no command publisher: the scenario's program flies (truth/state equals
   the scheduled flight), and commands out of range sent to it are refused
   and counted on /diagnostics, changing nothing.
@@ -21,7 +27,9 @@ from hyper_nav_msgs.msg import GlideCommand, NavState
 
 from hyper_nav_filter.conversions import stamp_to_s
 from hyper_nav_filter.ros_util import publisher_qos
-from hyper_nav_guidance.closed_loop import fly_on_truth
+from hyper_nav_guidance.closed_loop import (bag_loop, fly_on_navigation, fly_on_truth, late_inputs_of,
+                                           replay_commands, truth_epochs)
+from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu
 from hyper_nav_sim.core.boost_glide import DynamicTrajectory
 from hyper_nav_sim.core.boost_glide_config import parse_flight
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
@@ -77,6 +85,55 @@ def test_guidance_on_truth_live_equals_offline(hyper_nav_graph):
     assert int(status["commands missed"]) == 0 and not any(k.startswith("commands refused") for k in status)
     cfg = GuidanceConfig.from_config(run.scenario.data["guidance"])
     assert offline.miss["miss_m"] < cfg.miss_tolerance_m
+
+
+def _bag_rows(bag, topic):
+    from hyper_nav_workbench.core.bag import deserialize, read_bag
+    rows = []
+    for rec in read_bag(bag, topics=(topic,)):
+        m = deserialize(rec.raw, rec.msgtype)
+        if topic == "/imu/data_raw":
+            w, a = m.angular_velocity, m.linear_acceleration
+            rows.append((stamp_to_s(m.header.stamp), w.x, w.y, w.z, a.x, a.y, a.z))
+        else:
+            rows.append((stamp_to_s(m.header.stamp), m.latitude, m.longitude, m.altitude))
+    return np.array(sorted(rows))
+
+
+def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
+    over = {"duration_s": 20.0, "graph.real_time_factor": 5.0}
+    run = hyper_nav_graph("guidance_glide", overrides=over, record=True,
+                          topics={"/diagnostics": DiagnosticArray, "guidance/command": GlideCommand})
+    sc = run.scenario
+    status = _truth_status(run.messages["/diagnostics"])
+    cmds, truth = bag_loop(run.bag)
+    # the loop went round on navigation: a command for every grid stamp 1.0 .. 20.0 s, all taken, none missed
+    assert len(cmds) == 191 and int(status["commands accepted"]) == int(status["commands received"]) == 191
+    assert int(status["commands missed"]) == 0 and not any(k.startswith("commands refused") for k in status)
+    # the sensors flew the flight the truth node flew (the commands' flight), bit for bit
+    flight = replay_commands(sc, cmds).flight
+    imu = FlownImu(sc, flight)
+    t, dth, dv = imu.until_flown()
+    want = np.column_stack([t, dth / imu.dt_s, dv / imu.dt_s])[t <= sc["duration_s"] + 1e-9]
+    got = _bag_rows(run.bag, "/imu/data_raw")
+    assert got.shape == want.shape == (1000, 7)
+    assert np.array_equal(got[:, 1:], want[:, 1:]) and np.abs(got[:, 0] - want[:, 0]).max() < 1e-9
+    fixes = FlownFixes(sc, flight).until(sc["duration_s"])
+    got = _bag_rows(run.bag, "/gnss/fix")
+    assert len(got) == len(fixes) == 200
+    assert np.array_equal(got[:, 3], [float(g.alt_m[0]) for g in fixes])
+    assert np.array_equal(got[:, 1], [float(np.rad2deg(g.lat_rad[0])) for g in fixes])
+    # ... which is not the scheduled program's: the guidance steered it (km off at 20 s)
+    prog = DynamicTrajectory(**parse_flight(dict(sc.data["flight"]))).truth(np.array([20.0]))
+    assert abs(flight.truth(np.array([20.0])).alt_m[0] - prog.alt_m[0]) > 10.0 or \
+        abs(flight.truth(np.array([20.0])).lat_rad[0] - prog.lat_rad[0]) * 6.4e6 > 10.0
+    # live == offline on the recorded bag: the same cores, the inputs where they arrived live
+    off = fly_on_navigation(sc, "current", late_inputs=late_inputs_of(run.bag))
+    assert np.array_equal(np.array(cmds), np.array(off.commands[:len(cmds)])), "commands differ"
+    t_truth = truth_epochs(sc, len(truth))
+    want = np.array([[s.lat_rad[0], s.lon_rad[0], s.alt_m[0], *s.vel_enu_mps[0]]
+                     for s in (off.flight.truth(t_truth[i:i + 1]) for i in range(len(t_truth)))])
+    assert len(truth) == 1001 and np.array_equal(truth, want)
 
 
 def test_no_command_topic_program_flies_and_bad_commands_are_refused(hyper_nav_graph):

@@ -8,12 +8,13 @@ every truth_rate), one epoch at a time, each stamp through the message's
 (sec, nanosec) round trip, so that the live flight recorded in a bag equals
 it bit for bit (``test/test_guidance_graph.py``).
 
-``fly_on_navigation(sc, ...)`` closes the loop through navigation: the IMU
-increments (exact, from the commanded flight, ``gauss_legendre_increments``)
-corrupted by the scenario's IMU error model as one continuous process
-(``ImuErrorState``), the loosely coupled GNSS fixes of ``gnss_model`` (white
-noise: not the raw-GNSS realistic world), both generated as the flight
-advances, fed to the fusion engine in time order; the guidance flies on the
+``fly_on_navigation(sc, ...)`` closes the loop through navigation, as the
+live graph does (``test/test_guidance_graph.py``: the same commands bit for
+bit): the IMU increments and the loosely coupled GNSS fixes (white noise:
+not the raw-GNSS realistic world) of the commanded flight, drawn as it
+advances (``hyper_nav_sim.core.flown_streams``, as the sensor nodes draw
+them), through the messages' own round trips (rates and stamps of
+sensor_msgs/Imu, degrees of NavSatFix), fed to the fusion engine in time order; the guidance flies on the
 engine's navigation: ``stream="delayed"`` its released (1 s delayed)
 solutions (``FusionEngine.release``, the live ``nav/delayed/state``),
 ``stream="current"`` its current-time state (``FusionEngine.current``, issue
@@ -37,11 +38,9 @@ from hyper_nav_filter.conversions import s_to_stamp_fields
 from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 from hyper_nav_filter.core.stream_runner import StreamRunner
-from hyper_nav_sim.core.boost_glide_config import parse_flight
-from hyper_nav_sim.core.commanded_flight import CommandedFlight, CommandLoop
-from hyper_nav_sim.core.gnss_model import simulate_fixes
+from hyper_nav_sim.core.commanded_flight import CommandedFlight, CommandLoop, flight_of_scenario
+from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
-from hyper_nav_sim.core.imu_model import ImuErrors, ImuErrorState, corrupt_increments, imu_epochs
 from hyper_nav_sim.core.scenario import Scenario
 
 from .core.law import GlideGuidance, miss_enu_m
@@ -75,12 +74,8 @@ def with_changes(sc: Scenario, changes: dict) -> Scenario:
 
 
 def make_flight(sc: Scenario):
-    cfg = GuidanceConfig.from_config(sc.data["guidance"])
-    fl = dict(sc.data["flight"])
-    fl.setdefault("duration_s", sc["duration_s"])
-    flight = CommandedFlight(**parse_flight(fl), step_s=cfg.period_s, apply_delay_s=cfg.apply_delay_s,
-                             bank_max_rad=cfg.bank_limit_rad)
-    return cfg, flight
+    """(GuidanceConfig, CommandedFlight): ``commanded_flight.flight_of_scenario``."""
+    return flight_of_scenario(sc)
 
 
 def stamp_round_trip(t_s: float) -> float:
@@ -129,9 +124,12 @@ def fly_on_truth(sc: Scenario) -> LoopResult:
     return _finish(cfg, flight, loop, commands)
 
 
-def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) -> LoopResult:
+def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=(), late_inputs=None) -> LoopResult:
     """Guidance on the fusion engine's solutions (module doc). ``gnss_outages``:
-    [(t0, t1), ...] windows without GNSS fixes (t1 may be inf)."""
+    [(t0, t1), ...] windows without GNSS fixes (t1 may be inf), beside the
+    scenario's ``gnss.outages_s``. ``late_inputs``: a live run's late GNSS
+    inputs (``late_inputs_of(bag)``), fed where they arrived there: the
+    run's current-time stream, commands and flight, bit for bit."""
     if stream not in STREAMS:
         raise ValueError(f"stream {stream!r}: one of {STREAMS}")
     cfg, flight = make_flight(sc)
@@ -142,12 +140,9 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
     loop = CommandLoop(flight, cfg.t_start_s, expect=True)
     law = GlideGuidance(cfg, flight.vehicle)
     eng = FusionEngine(fcfg, sc.filter_initial_state())
-    dt = 1.0 / sc["imu.rate_hz"]
-    t_imu = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
-    t_gnss = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
-    errors, rng_imu, rng_gnss, st = ImuErrors.from_scenario(sc), sc.rng("imu"), sc.rng("gnss"), ImuErrorState()
+    imu = FlownImu(sc, flight)
     commands, h = [], flight.step_s
-    run = StreamRunner(eng, [_GnssFixes(flight, sc, t_gnss, rng_gnss, gnss_outages)])
+    run = StreamRunner(eng, [_GnssFixes(FlownFixes(sc, flight, gnss_outages), late_inputs)])
     last_nav = None
 
     def act(sols):
@@ -162,26 +157,23 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
             loop.receive(t_nav, c.sigma_cmd_rad, c.c_l_cmd)
             last_nav = (t_nav, float(x.lat_rad), float(x.lon_rad), float(x.alt_m))
 
-    k, n_imu = 0, len(t_imu)
-    while k < n_imu:
-        t = t_imu[k]
+    while not imu.done:
+        t = imu.t_s[imu.k]
         loop.advance(math.ceil(t / h - 1e-9) * h)
         if flight.flown_s < t - 1e-9:
             if flight.finished:
                 break
             raise RuntimeError(f"the loop stalls at {t:.3f} s: guidance.apply_delay_s too short for its stream")
-        # the IMU samples of the flown step, in one call (one continuous error process)
-        k1 = int(np.searchsorted(t_imu, flight.flown_s + 1e-9, side="right"))
-        dth_b, dv_b = flight.imu_increments(t_imu[k:k1], dt)
-        dth_b, dv_b = corrupt_increments(dth_b, dv_b, dt, errors, rng_imu, st)
-        for i in range(k1 - k):
-            t = t_imu[k + i]
-            released = run.step(t, dth_b[i], dv_b[i])
+        # the IMU samples of the flown step (FlownImu: one continuous error process, cut by steps)
+        t_k, dth_b, dv_b = imu.until_flown()
+        w_b, f_b = dth_b / imu.dt_s, dv_b / imu.dt_s            # as the IMU node's messages carry them
+        for i in range(len(t_k)):
+            t = stamp_round_trip(t_k[i])                         # and their stamps
+            released = run.step(t, w_b[i], f_b[i], rates=True)
             if stream == "delayed":
                 act(released)
             elif eng.current is not None and abs(eng.current.t_s - t) <= 1e-9:
                 act((eng.current,))              # the state at this sample (formed when it was added)
-        k = k1
     nav_err = 0.0
     if last_nav is not None:
         from hyper_nav_gnss import earth
@@ -193,30 +185,49 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=()) ->
 
 
 class _GnssFixes:
-    """The GNSS fixes as a feed of the engine's runner: drawn for every epoch
-    up to each IMU sample (the flight is flown as it goes), dropped in the outages."""
+    """The GNSS fixes as a feed of the engine's runner (``FlownFixes``: drawn
+    as the flight is flown, none in the outages), through the messages' round
+    trips (stamps; latitude and longitude in degrees), in the live fusion
+    node's order of arrival: each before the IMU sample at its own stamp (it
+    arrived before that sample), or, when ``late`` names it (the bag's
+    ``nav/late_inputs``: {(topic, stamp_ns): after_imu_ns}), right after the
+    IMU sample it followed there (``replay_order.live_order``'s rule)."""
 
-    def __init__(self, flight, sc, t_gnss, rng_gnss, gnss_outages):
-        self.args, self.j = (flight, sc, t_gnss), 0
-        self.rng, self.outages = rng_gnss, gnss_outages
+    def __init__(self, fixes: FlownFixes, late: dict | None = None):
+        self.fixes, self.late = fixes, dict(late or {})
+        self.held: dict[int, list] = {}             # IMU stamp (ns) -> measurements fed right after it
+
+    def before(self, eng, t):
+        for g in self.fixes.until(t + 1e-9):
+            sec, nsec = s_to_stamp_fields(float(g.t_s[0]))
+            ns, tg = sec * 1_000_000_000 + nsec, sec + nsec * 1e-9
+            lat, lon = (np.deg2rad(float(np.rad2deg(x))) for x in (g.lat_rad[0], g.lon_rad[0]))
+            for topic, m in (("gnss/fix", GnssPosition(tg, lat, lon, float(g.alt_m[0]),
+                                                       np.diag(g.pos_sigma_enu_m**2))),
+                             ("gnss/vel", GnssVelocity(tg, g.vel_enu_mps[0], np.diag(g.vel_sigma_enu_mps**2)))):
+                after = self.late.get((topic, ns))
+                if after is None:
+                    eng.add_measurement(m)
+                else:
+                    self.held.setdefault(after, []).append(m)
 
     def until(self, eng, t):
-        flight, sc, t_gnss = self.args
-        self.j = _gnss_until(eng, flight, sc, t_gnss, self.j, t, self.rng, self.outages)
+        sec, nsec = s_to_stamp_fields(t)
+        for m in self.held.pop(sec * 1_000_000_000 + nsec, ()):
+            eng.add_measurement(m)
 
 
-def _gnss_until(eng, flight, sc, t_gnss, j, t, rng_gnss, gnss_outages):
-    """Add the GNSS fixes up to t (drawn for every epoch, dropped in the outages); returns the next index."""
-    while j < len(t_gnss) and t_gnss[j] <= t + 1e-9:
-        tg = t_gnss[j]
-        g = simulate_fixes(flight, t_gnss[j:j + 1], sc["gnss.pos_sigma_enu_m"], sc["gnss.vel_sigma_enu_mps"],
-                           sc["gnss.antenna_lever_arm_b_m"], rng_gnss)
-        if not any(a <= tg < b for a, b in gnss_outages):
-            eng.add_measurement(GnssVelocity(tg, g.vel_enu_mps[0], np.diag(g.vel_sigma_enu_mps**2)))
-            eng.add_measurement(GnssPosition(tg, g.lat_rad[0], g.lon_rad[0], g.alt_m[0],
-                                             np.diag(g.pos_sigma_enu_m**2)))
-        j += 1
-    return j
+def late_inputs_of(bag) -> dict:
+    """{(topic, stamp_ns): after_imu_ns} of the GNSS inputs a live run's fusion
+    node reported late (``nav/late_inputs`` in its bag), for ``fly_on_navigation``."""
+    from hyper_nav_filter.replay_order import LateInput
+    from hyper_nav_workbench.core.bag import deserialize, read_bag
+    out = {}
+    for rec in read_bag(bag, topics=("/nav/late_inputs",)):
+        r = LateInput.from_msg(deserialize(rec.raw, rec.msgtype))
+        if r.topic in ("gnss/fix", "gnss/vel") and r.occurrence == 0:
+            out[(r.topic, r.stamp_ns)] = r.after_imu_ns
+    return out
 
 
 def replay_commands(sc: Scenario, commands) -> LoopResult:

@@ -80,16 +80,19 @@ class StreamRunner:
         self._released = [f.released for f in self.feeds if hasattr(f, "released")]
         self._wall = None
 
-    def step(self, t_s, dtheta_b_rad, dvel_b_mps) -> list:
-        """One IMU sample (steps 1-4); returns what it released ([] between releases)."""
+    def step(self, t_s, dtheta_b_rad, dvel_b_mps, rates: bool = False) -> list:
+        """One IMU sample (steps 1-4); returns what it released ([] between releases).
+        ``rates``: the sample is given as mean rates over its interval
+        (``FusionEngine.add_imu_rates``, as a sensor_msgs/Imu carries it)."""
         eng = self.eng
+        add = eng.add_imu_rates if rates else eng.add_imu
         for f in self._before:
             f(eng, t_s)
         if self._wall is None:
-            eng.add_imu(t_s, dtheta_b_rad, dvel_b_mps)
+            add(t_s, dtheta_b_rad, dvel_b_mps)
         else:
             t0 = time.perf_counter()
-            eng.add_imu(t_s, dtheta_b_rad, dvel_b_mps)
+            add(t_s, dtheta_b_rad, dvel_b_mps)
             self._wall[self.samples] = time.perf_counter() - t0
         for f in self._until:
             f(eng, t_s)

@@ -205,6 +205,24 @@ class CommandedFlight(DynamicTrajectory):
         return super().state(t)
 
 
+def flight_of_scenario(sc) -> tuple:
+    """(GuidanceConfig, CommandedFlight) of a scenario with ``guidance:`` and
+    ``flight:`` blocks: the one construction the truth node, the sensor
+    nodes' mirrors (``nodes.flight_mirror``) and the offline loops share, so
+    that they fly the same flight bit for bit."""
+    from .guidance_config import GuidanceConfig
+    cfg = GuidanceConfig.from_config(sc.data["guidance"])
+    fl = dict(sc.data["flight"])
+    fl.setdefault("duration_s", sc["duration_s"])
+    return cfg, CommandedFlight(**parse_flight(fl), step_s=cfg.period_s, apply_delay_s=cfg.apply_delay_s,
+                                bank_max_rad=cfg.bank_limit_rad)
+
+
+def is_commanded(sc) -> bool:
+    """Whether the scenario's flight is flown live on commands (a ``guidance:`` and a ``flight:`` block)."""
+    return "guidance" in sc.data and "flight" in sc.data
+
+
 class CommandLoop:
     """The flight's side of a live loop (truth node, offline loops): which
     steps may be flown given the commands received.
@@ -212,15 +230,19 @@ class CommandLoop:
     A guidance that is in the loop (``expect``) sends one command per
     navigation stamp on its grid t_j = j period_s (t_j >= t_start_s, before
     the flight's end), and command j applies at step j + m,
-    m = ceil(apply_delay_s / period_s). So step k may be integrated once
+    m = ceil(apply_delay_s / period_s); none is awaited for a stamp after
+    ``t_end_s`` (the end of the navigation data: the scenario's duration_s).
+    So step k may be integrated once
     every command j <= k - m has arrived (accepted or refused: a refused
     one is counted and the previous command holds) or been given up
     (``give_up``: counted as missed). The flight then never depends on when
     a command arrived, only on its stamp and values."""
 
-    def __init__(self, flight: CommandedFlight, t_start_s: float = 0.0, expect: bool = True):
+    def __init__(self, flight: CommandedFlight, t_start_s: float = 0.0, expect: bool = True,
+                 t_end_s: float = math.inf):
         self.flight = flight
         self.expect = bool(expect)
+        self.t_end_s = float(t_end_s)
         P = flight.step_s
         self.j_first = int(math.ceil(t_start_s / P - 1e-9))
         self.m = flight.apply_step(0.0)
@@ -245,8 +267,8 @@ class CommandLoop:
     def flyable_s(self) -> float:
         """The time up to which the flight may be integrated now."""
         f = self.flight
-        if not self.expect or f.finished:
-            return math.inf
+        if not self.expect or f.finished or self.next_j * f.step_s > self.t_end_s + 1e-9:
+            return math.inf                      # no navigation after t_end_s: no command to wait for
         return (self.next_j + self.m) * f.step_s
 
     def waiting_for_s(self) -> float | None:

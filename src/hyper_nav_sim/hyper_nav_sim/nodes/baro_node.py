@@ -11,6 +11,7 @@ from hyper_nav_filter.ros_util import declare_params, run_node
 
 from .baro_messages import TOPIC, fill_pressure, pressure_samples
 from .params import frame_id
+from ..core.flown_streams import refuse_commanded
 from .sensor_base import ClockDrivenSensor
 
 
@@ -19,6 +20,7 @@ class BaroNode(ClockDrivenSensor):
         super().__init__("barometer")
         self.frame_id = declare_params(self, (frame_id("base_link", "pressure"),))["frame_id"]
         sc = self.scenario
+        refuse_commanded(sc, "the barometer node")      # issue 36: its model takes the whole trajectory
         # no data above the altimeter's ceiling; the variance as Monte Carlo draws it (baro_messages)
         self.t_s, self.p_pa, self.var = pressure_samples(sc, sc.trajectory())
         self.pub = self.create_publisher(FluidPressure, TOPIC, self.qos)

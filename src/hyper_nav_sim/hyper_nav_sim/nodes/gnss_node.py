@@ -14,6 +14,11 @@ fixes are the antenna truth plus white noise.
 Messages are released ``gnss.latency_s`` after their epoch (receiver
 latency); header.stamp stays the measurement epoch.
 
+On a commanded flight (issue 36) the fixes are those of the steered flight,
+drawn epoch by epoch as the node's mirror of it is flown
+(``core.flown_streams.FlownFixes``, none in ``gnss.outages_s``); the raw
+receiver (``gnss.raw``) is refused there (ValueError at start).
+
 Aiding loop (issue 23; ``gnss.raw.tracking.aiding_source: nav_state``, off by
 default): the node subscribes ``nav/delayed/state`` (hyper_nav_msgs/NavState,
 remappable), hands each message to ``core.gnss.aiding.AidingInput`` (refused
@@ -32,6 +37,8 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 from hyper_nav_filter.ros_util import declare_params, latched_qos, run_node
 
 from ..core import simulate
+from ..core.commanded_flight import is_commanded
+from ..core.flown_streams import FlownFixes
 from ..gnss_messages import fill_gnss_ephemeris
 from .params import GNSS, GNSS_FROM_SCENARIO, with_scenario
 from .sensor_base import ClockDrivenSensor
@@ -46,6 +53,10 @@ class GnssNode(ClockDrivenSensor):
         self.pub_fix = self.create_publisher(NavSatFix, "gnss/fix", self.qos)
         self.pub_vel = self.create_publisher(TwistWithCovarianceStamped, "gnss/vel", self.qos)
         self.raw_mode = "raw" in sc.data["gnss"]
+        if is_commanded(sc):                 # issue 36: the fixes of the steered flight, epoch by epoch
+            self.flown = FlownFixes(sc, self.follow_flight(self._on_flown).flight)     # refuses gnss.raw
+            self.raw_mode = False
+            return
         # subscriptions gnss/raw must see before data flows (run_graph: the recorder,
         # plus the fusion node when it runs tightly coupled); -1: min(1, min_subscribers)
         raw_need = p["raw_min_subscribers"]
@@ -171,24 +182,37 @@ class GnssNode(ClockDrivenSensor):
     def _eph_msg(self, eph, t_s):
         return fill_gnss_ephemeris(self._eph_cls(), eph, t_s)
 
+    def stream_complete(self) -> bool:
+        return self.mirror is None or self.flown.done
+
+    def _on_flown(self):
+        for g in self.flown.until(float("inf")):
+            pos_cov, vel_cov = np.diag(g.pos_sigma_enu_m**2), np.diag(g.vel_sigma_enu_mps**2)
+            self.schedule(g.t_s, self.pub_fix, lambda i, g=g, c=pos_cov: self._fix_msg(g, i, c))
+            self.schedule(g.t_s, self.pub_vel, lambda i, g=g, c=vel_cov: self._vel_msg(g, i, c))
+
     def _make_fix(self, i: int) -> NavSatFix:
-        f = self.fixes
+        return self._fix_msg(self.fixes, i, self.pos_cov[i])
+
+    def _make_vel(self, i: int) -> TwistWithCovarianceStamped:
+        return self._vel_msg(self.fixes, i, self.vel_cov[i])
+
+    def _fix_msg(self, f, i: int, pos_cov) -> NavSatFix:
         m = self.stamp(NavSatFix(), f.t_s[i], self.frame_id)
         m.status.status = NavSatStatus.STATUS_FIX
         m.status.service = NavSatStatus.SERVICE_GPS
         m.latitude, m.longitude = float(np.rad2deg(f.lat_rad[i])), float(np.rad2deg(f.lon_rad[i]))
         m.altitude = float(f.alt_m[i])
-        m.position_covariance = np.asarray(self.pos_cov[i], float).ravel().tolist()
+        m.position_covariance = np.asarray(pos_cov, float).ravel().tolist()
         m.position_covariance_type = NavSatFix.COVARIANCE_TYPE_KNOWN
         return m
 
-    def _make_vel(self, i: int) -> TwistWithCovarianceStamped:
-        f = self.fixes
+    def _vel_msg(self, f, i: int, vel_cov) -> TwistWithCovarianceStamped:
         m = self.stamp(TwistWithCovarianceStamped(), f.t_s[i], self.enu_frame)
         v = m.twist.twist.linear
         v.x, v.y, v.z = map(float, f.vel_enu_mps[i])
         vcov = np.zeros((6, 6))
-        vcov[:3, :3] = self.vel_cov[i]
+        vcov[:3, :3] = vel_cov
         vcov[3:, 3:] = np.eye(3) * 1e6          # angular part unknown: huge variance
         m.twist.covariance = vcov.ravel().tolist()
         return m

@@ -12,6 +12,7 @@ from hyper_nav_filter.ros_util import declare_params, run_node
 
 from ..core import simulate
 from .params import frame_id
+from ..core.flown_streams import refuse_commanded
 from .sensor_base import ClockDrivenSensor
 
 
@@ -20,6 +21,7 @@ class RadarNode(ClockDrivenSensor):
         super().__init__("radar")
         self.frame_id = declare_params(self, (frame_id("radar", "radar track"),))["frame_id"]
         sc = self.scenario
+        refuse_commanded(sc, "the radar node")      # issue 36: its model takes the whole trajectory
         self.meas = simulate.radar_stream(sc, sc.trajectory())
         cfg = sc.data["radar"]
         self.sig = (float(cfg.get("sigma_alt_m", 2000.0)), float(cfg.get("sigma_lon_rad", 0.01)),

@@ -8,6 +8,12 @@ not those of the node's other topics), then subscribes to
 ``/clock`` and publishes every sample whose release time (epoch + latency)
 has been reached. ``header.stamp`` is always the measurement epoch.
 
+With a commanded flight (a scenario ``guidance:`` and ``flight:`` block,
+issue 36) the node flies a mirror of the truth node's flight from
+``flight/steps`` (``follow_flight``, ``flight_mirror``) and queues each
+step's samples as it is flown; it then allows no /clock past the flight it
+knows of (+ ``clock.lead_s``).
+
 Its ``/diagnostics`` status (every ``diagnostics_period_s`` of wall time,
 from ``graph.diagnostics_period_s``) carries ``heartbeat``, ``scheduled
 <topic>`` (the node's whole stream), ``published <topic>``, ``last <topic>``
@@ -60,6 +66,7 @@ class ClockDrivenSensor(Node):
         self._next = 0
         self._done_reported = False
         self._clock_sub = None
+        self.mirror = None                      # a commanded flight's mirror (follow_flight)
         self.lead_s = p["clock.lead_s"]
         # no allowance before the /clock subscription exists (clock_gate: the time source holds the clock
         # until it has heard this node)
@@ -81,7 +88,27 @@ class ClockDrivenSensor(Node):
         self.published.setdefault(name, 0)
         for i, t in enumerate(epochs_s):
             self._queue.append((t + self.latency_s, t, topic_publisher, make_msg, i))
-        self._queue.sort(key=lambda e: (e[0], e[1]))
+        # only the unreleased tail is ordered (a commanded flight's samples are queued as it is flown)
+        self._queue[self._next:] = sorted(self._queue[self._next:], key=lambda e: (e[0], e[1]))
+
+    # ---- a commanded flight (issue 36) -----------------------------------------------
+    def follow_flight(self, on_flown):
+        """Fly a mirror of the truth node's commanded flight (``flight_mirror``):
+        ``on_flown()`` queues the samples of each step as it is flown (with
+        ``schedule``); returns the mirror (its ``flight`` is the one to sample).
+        The node's stream is complete when ``stream_complete()`` says so."""
+        from .flight_mirror import FlightMirror
+        self.mirror = FlightMirror(self, self.scenario, lambda: (on_flown(), self._release()))
+        return self.mirror
+
+    def stream_complete(self) -> bool:
+        """Whether every sample of the stream is queued (a commanded flight's
+        node overrides it: its stream grows as the flight is flown)."""
+        return True
+
+    def _all_out(self) -> bool:
+        return self._next == len(self._queue) and self.stream_complete() and \
+            (bool(self._queue) or self.mirror is not None)
 
     def _start_when_ready(self):
         for entry in self.publishers_to_match():
@@ -93,13 +120,22 @@ class ClockDrivenSensor(Node):
         self._clock_sub = self.create_subscription(Clock, "/clock", self._on_clock, publisher_qos(1000))
 
     def _allowance(self) -> float:
-        if self._queue and self._next == len(self._queue):
+        if self._all_out():
             return math.inf                     # the whole stream is out: nothing to hold the clock for
-        return (self.sim_time_s or 0.0) + self.lead_s
+        worked = self.sim_time_s or 0.0
+        if self.mirror is not None:             # nothing is known of the flight past the mirror's
+            worked = min(worked, self.mirror.flight.flown_s)
+        return worked + self.lead_s
 
     def _on_clock(self, msg: Clock):
-        now = stamp_to_s(msg.clock)
-        self.sim_time_s = now
+        self.sim_time_s = stamp_to_s(msg.clock)
+        self._release()
+
+    def _release(self):
+        """Publish every queued sample due at the clock received last."""
+        if self.sim_time_s is None:
+            return
+        now = self.sim_time_s
         while self._next < len(self._queue) and self._queue[self._next][0] <= now + 1e-9:
             _, t, pub, make_msg, i = self._queue[self._next]
             pub.publish(make_msg(i))
@@ -108,7 +144,7 @@ class ClockDrivenSensor(Node):
             self.last_stamp[name] = t
             self._next += 1
         self.allowance.set(self._allowance())
-        if self._next == len(self._queue) and self._queue and not self._done_reported:
+        if self._all_out() and not self._done_reported:
             self._done_reported = True          # the whole stream is out: say so at once
             self.publish_diagnostics()
 
@@ -124,7 +160,7 @@ class ClockDrivenSensor(Node):
         values.update(getattr(self, "_extra_diag", {}))         # a subclass's own counters
         if self.sim_time_s is not None:
             values["sim_time_s"] = f"{self.sim_time_s:.3f}"
-        self.status.publish("ok", "done" if self._next == len(self._queue) else "running", values)
+        self.status.publish("ok", "done" if self._all_out() else "running", values)
 
     @staticmethod
     def stamp(msg, t_s: float, frame_id: str):

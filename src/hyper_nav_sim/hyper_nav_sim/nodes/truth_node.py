@@ -37,8 +37,11 @@ scheduled program flies. Refused commands (out of range, NaN, late) are
 counted on /diagnostics by reason; a command awaited for
 ``guidance.command_timeout_s`` of wall time is given up (``commands missed``).
 The truth stops at the flight's end (e.g. ``flight.end_alt_m``); the clock
-runs on to duration_s. The sensor nodes still fly the scheduled program:
-navigation in this loop is not yet the steered flight's (issue 36 report).
+runs on to duration_s. Every step flown goes out on ``flight/steps``
+(hyper_nav_msgs/FlightStep: the step and the command that took effect at
+it; transient local) before the /clock that passes it: the sensor nodes fly
+a mirror of the same flight from them (``flight_mirror``), so their
+measurements, and the navigation made from them, follow the steered flight.
 """
 from __future__ import annotations
 
@@ -47,7 +50,7 @@ import time
 
 import numpy as np
 import rclpy
-from hyper_nav_msgs.msg import GlideCommand, NavState
+from hyper_nav_msgs.msg import FlightStep, GlideCommand, NavState
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -57,10 +60,10 @@ from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
 from hyper_nav_filter.core.attitude import C_to_quat_xyzw
 from hyper_nav_filter.ros_util import all_matched, declare_params, publisher_qos, run_node
 
-from ..core.commanded_flight import CommandedFlight, CommandLoop
-from ..core.guidance_config import GuidanceConfig
+from ..core.commanded_flight import CommandLoop, flight_of_scenario
 from ..core.imu_model import ImuErrors
 from ..core.scenario import load_scenario
+from .flight_mirror import FLIGHT_STEPS_TOPIC, steps_qos
 from .params import TRUTH, TRUTH_FROM_SCENARIO, with_scenario
 from .status import NodeStatus
 
@@ -155,19 +158,22 @@ class TruthNode(Node):
             self.timer.cancel()
             self._diag()
             # reliable delivery: wait until every subscriber acknowledged
-            for pub in (self.pub_clock, self.pub_truth, self.status.pub):
+            for pub in (self.pub_clock, self.pub_truth, self.status.pub) + \
+                    ((self.pub_steps,) if self.loop is not None else ()):
                 pub.wait_for_all_acked(Duration(seconds=10.0))
             self.get_logger().info("scenario finished")
             rclpy.try_shutdown()
 
     # ---- live commands ------------------------------------------------------------
     def _setup_commands(self, sc, p):
-        cfg = self.guidance = GuidanceConfig.from_config(sc.data["guidance"])
-        flight = CommandedFlight.from_config(dict(sc.data["flight"], duration_s=sc.data["flight"].get(
-            "duration_s", sc["duration_s"])), step_s=cfg.period_s, apply_delay_s=cfg.apply_delay_s,
-            bank_max_rad=cfg.bank_limit_rad)
+        cfg, flight = flight_of_scenario(sc)
+        self.guidance = cfg
         self.flight = flight
-        self.loop = CommandLoop(flight, cfg.t_start_s, expect=False)
+        # every flown step, to the sensor nodes' mirrors (transient local: a late joiner gets them all)
+        self.pub_steps = self.create_publisher(FlightStep, FLIGHT_STEPS_TOPIC, steps_qos(flight))
+        self._k_published, self._cmd_published = 0, 0
+        self.counts["published flight/steps"] = 0
+        self.loop = CommandLoop(flight, cfg.t_start_s, expect=False, t_end_s=sc["duration_s"])
         self.command_publishers = p["command_publishers"]
         self.sub_cmd = self.create_subscription(GlideCommand, cfg.command_topic, self._on_command,
                                                 publisher_qos(sc["graph.qos_depth"]))
@@ -193,6 +199,7 @@ class TruthNode(Node):
         h = f.step_s
         t_goal = target * self.step_s
         self.loop.advance(math.ceil(t_goal / h - 1e-9) * h)
+        self._publish_steps()
         if f.finished:
             return target
         k_ok = int(np.floor(f.flown_s / self.step_s + 1e-9))
@@ -210,6 +217,24 @@ class TruthNode(Node):
         else:
             self._wait_since = None
         return k_ok
+
+    def _publish_steps(self):
+        """One ``FlightStep`` per step flown since the last call (before the /clock that passes it)."""
+        f = self.flight
+        while self._k_published < f.next_step:
+            k = self._k_published
+            m = FlightStep()
+            m.header.stamp.sec, m.header.stamp.nanosec = s_to_stamp_fields(k * f.step_s)
+            m.header.frame_id = self.enu_frame
+            m.step = k
+            cmds = f.commands
+            if self._cmd_published < len(cmds) and abs(cmds[self._cmd_published][0] - k * f.step_s) < 1e-9:
+                _, m.t_nav_s, m.bank_rad, m.c_l = map(float, cmds[self._cmd_published])
+                m.command_applied = True
+                self._cmd_published += 1
+            self.pub_steps.publish(m)
+            self.counts["published flight/steps"] += 1
+            self._k_published += 1
 
     def _publish_truth_until(self, t):
         if self.truth is None:

@@ -1,0 +1,151 @@
+"""Sensor streams of a commanded flight, drawn as it is flown (issue 36).
+
+A flight steered live (``commanded_flight.CommandedFlight``) exists only up
+to ``flown_s``, so its sensors cannot be simulated for the whole flight
+before it starts as the scheduled flights' are (``simulate.imu_stream``...).
+These generators draw each sensor's samples as the flight advances, with a
+cut that never depends on how far or how often it was advanced: the live
+sensor nodes (each flying its own mirror of the truth node's flight,
+``nodes.flight_mirror``) and the offline loop
+(``hyper_nav_guidance.closed_loop.fly_on_navigation``) call them at
+different moments and get the same samples bit for bit.
+
+* ``FlownImu``: the exact increments of the flight
+  (``DynamicTrajectory.imu_increments``, Gauss-Legendre over each interval)
+  corrupted by the scenario's IMU error model as one continuous process
+  (``imu_model.ImuErrorState``, stream ``imu``), drawn one command step at a
+  time: the samples ending in ((j-1) h, j h] (h = ``flight.step_s``) in one
+  call of ``corrupt_increments``, whatever the flight's progress.
+* ``FlownFixes``: loosely coupled fixes (``gnss_model.simulate_fixes``,
+  antenna truth plus white noise, stream ``gnss``) one epoch at a time,
+  drawn for every epoch and dropped inside ``gnss.outages_s`` (and any
+  outages given).
+* ``FlownMag``: the WMM field (``mag_model.simulate_magnetometer_T``,
+  stream ``mag``) one epoch at a time.
+
+What these do not simulate on a commanded flight is refused at construction
+with the reason (ValueError naming the block): the elastic lever arm and its
+load sensor (seed 000), the raw-GNSS receiver (``gnss.raw``), a white map
+error of the magnetometer, the barometer and the radar
+(``refuse_commanded``). Those models take the whole trajectory at once.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .gnss_model import parse_outages, simulate_fixes
+from .imu_model import ImuErrors, ImuErrorState, corrupt_increments, imu_epochs
+from .mag_model import MagnetometerErrors, simulate_magnetometer_T
+
+_EPS = 1e-9
+
+
+def _not_supported(what: str) -> ValueError:
+    return ValueError(f"{what} is not simulated on a commanded flight (issue 36: a guidance: block with a "
+                      f"flight: block): its model takes the whole trajectory before the flight starts; "
+                      f"remove it or the guidance: block")
+
+
+def refuse_commanded(sc, what: str) -> None:
+    """A sensor simulated from the whole trajectory at once refuses a commanded flight (ValueError)."""
+    from .commanded_flight import is_commanded
+    if is_commanded(sc):
+        raise _not_supported(what)
+
+
+class FlownImu:
+    """IMU increments of a commanded flight, one command step at a time (module doc)."""
+
+    def __init__(self, sc, flight):
+        la = sc.data.get("lever_arm") or {}
+        if la.get("enabled", False):
+            raise _not_supported("lever_arm (the elastic lever arm and its load sensor)")
+        self.flight = flight
+        self.dt_s = 1.0 / sc["imu.rate_hz"]
+        self.t_s = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
+        self.errors = ImuErrors.from_scenario(sc)
+        self.rng, self.state = sc.rng("imu"), ImuErrorState()
+        self.k = 0                                   # the next sample to draw
+
+    @property
+    def done(self) -> bool:
+        """Every sample the flight will have is drawn."""
+        f = self.flight
+        return self.k >= len(self.t_s) or (f.finished and self.t_s[self.k] > f.flown_s + _EPS)
+
+    def until_flown(self):
+        """(t_s, dtheta_b_rad, dvel_b_mps) of the samples newly flown (stamps <= ``flight.flown_s``)."""
+        f, t, h = self.flight, self.t_s, self.flight.step_s
+        parts = []
+        while self.k < len(t) and t[self.k] <= f.flown_s + _EPS:
+            end = min(math.ceil(t[self.k] / h - _EPS) * h, f.flown_s)     # the end of this sample's step
+            k1 = int(np.searchsorted(t, end + _EPS, side="right"))
+            dth, dv = f.imu_increments(t[self.k:k1], self.dt_s)
+            dth, dv = corrupt_increments(dth, dv, self.dt_s, self.errors, self.rng, self.state)
+            parts.append((t[self.k:k1], dth, dv))
+            self.k = k1
+        if not parts:
+            return np.empty(0), np.empty((0, 3)), np.empty((0, 3))
+        return tuple(np.concatenate(x) for x in zip(*parts))
+
+
+class FlownFixes:
+    """Loosely coupled GNSS fixes of a commanded flight, one epoch at a time (module doc)."""
+
+    def __init__(self, sc, flight, outages=()):
+        if "raw" in sc.data["gnss"]:
+            raise _not_supported("gnss.raw (the raw-GNSS receiver)")
+        self.flight, self.sc = flight, sc
+        self.t_s = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
+        self.outages = tuple(parse_outages(sc.data["gnss"].get("outages_s"))) + tuple(outages)
+        self.rng = sc.rng("gnss")
+        self.j = 0
+
+    @property
+    def done(self) -> bool:
+        f = self.flight
+        return self.j >= len(self.t_s) or (f.finished and self.t_s[self.j] > f.flown_s + _EPS)
+
+    def until(self, t_s: float) -> list:
+        """The fixes stamped <= min(t_s, flown_s), each a one-epoch ``GnssFixes`` (none inside an outage)."""
+        sc, out = self.sc, []
+        t_max = min(t_s, self.flight.flown_s)
+        while self.j < len(self.t_s) and self.t_s[self.j] <= t_max + _EPS:
+            tg = self.t_s[self.j]
+            g = simulate_fixes(self.flight, self.t_s[self.j:self.j + 1], sc["gnss.pos_sigma_enu_m"],
+                               sc["gnss.vel_sigma_enu_mps"], sc["gnss.antenna_lever_arm_b_m"], self.rng)
+            if not any(a <= tg < b for a, b in self.outages):
+                out.append(g)
+            self.j += 1
+        return out
+
+
+class FlownMag:
+    """Magnetometer samples of a commanded flight, one epoch at a time (module doc)."""
+
+    def __init__(self, sc, flight):
+        self.errors = MagnetometerErrors.from_config(sc.data["magnetometer"])
+        if self.errors.map_error_model == "white_uniform" and self.errors.map_error_rms_nT > 0.0:
+            raise _not_supported("magnetometer.map_error_model white_uniform")
+        self.flight, self.sc = flight, sc
+        self.t_s = imu_epochs(sc["duration_s"], sc["magnetometer.rate_hz"])
+        self.rng = sc.rng("mag")
+        self.j = 0
+
+    @property
+    def done(self) -> bool:
+        f = self.flight
+        return self.j >= len(self.t_s) or (f.finished and self.t_s[self.j] > f.flown_s + _EPS)
+
+    def until_flown(self):
+        """(t_s, field_b_T) of the epochs newly flown."""
+        sc, t, rows = self.sc, [], []
+        while self.j < len(self.t_s) and self.t_s[self.j] <= self.flight.flown_s + _EPS:
+            rows.append(simulate_magnetometer_T(self.flight, self.t_s[self.j:self.j + 1],
+                                                sc["magnetometer.epoch_decimal_year"],
+                                                sc["magnetometer.noise_nT"], self.rng, errors=self.errors)[0])
+            t.append(self.t_s[self.j])
+            self.j += 1
+        return np.asarray(t, float), np.asarray(rows, float).reshape(-1, 3)
