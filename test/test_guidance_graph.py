@@ -23,13 +23,13 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from hyper_nav_msgs.msg import GlideCommand, NavState
+from hyper_nav_msgs.msg import GlideCommand, GnssMeasurements, NavState
 
 from hyper_nav_filter.conversions import stamp_to_s
 from hyper_nav_filter.ros_util import publisher_qos
 from hyper_nav_guidance.closed_loop import (bag_loop, fly_on_navigation, fly_on_truth, late_inputs_of,
                                            replay_commands, truth_epochs)
-from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu
+from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu, FlownRaw
 from hyper_nav_sim.core.boost_glide import DynamicTrajectory
 from hyper_nav_sim.core.boost_glide_config import parse_flight
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
@@ -134,6 +134,34 @@ def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
     want = np.array([[s.lat_rad[0], s.lon_rad[0], s.alt_m[0], *s.vel_enu_mps[0]]
                      for s in (off.flight.truth(t_truth[i:i + 1]) for i in range(len(t_truth)))])
     assert len(truth) == 1001 and np.array_equal(truth, want)
+
+
+def test_guidance_on_navigation_with_the_raw_receiver_live_equals_offline(hyper_nav_graph):
+    """The realistic world: the GNSS node's receiver (gnss.raw) on the steered flight, each epoch once
+    the flight is flown past it (FlownRaw); its fixes loosely coupled. Nothing lost, every command
+    taken, the receiver's epochs those of the recorded flight, live == offline bit for bit."""
+    over = {"duration_s": 10.0, "graph.real_time_factor": 5.0}
+    run = hyper_nav_graph("guidance_glide_realistic", overrides=over, record=True,
+                          topics={"/diagnostics": DiagnosticArray, "gnss/raw": GnssMeasurements})
+    sc = run.scenario
+    status = _truth_status(run.messages["/diagnostics"])
+    cmds, truth = bag_loop(run.bag)
+    assert len(cmds) == 91 and int(status["commands accepted"]) == 91 and int(status["commands missed"]) == 0
+    flight = replay_commands(sc, cmds).flight
+    epochs = FlownRaw(sc, flight).until(sc["duration_s"])
+    raw = sorted(run.messages["gnss/raw"], key=lambda m: stamp_to_s(m.header.stamp))
+    assert len(raw) == len(epochs) == 100
+    assert all(list(m.pseudorange_m) == [float(x) for x in e.pseudorange_m] for m, e in zip(raw, epochs))
+    got = _bag_rows(run.bag, "/gnss/fix")
+    with_fix = [e for e in epochs if e.fix is not None]
+    assert len(got) == len(with_fix) >= 90
+    assert np.array_equal(got[:, 3], [float(e.fix.alt_m) for e in with_fix])
+    off = fly_on_navigation(sc, "current", late_inputs=late_inputs_of(run.bag))
+    assert np.array_equal(np.array(cmds), np.array(off.commands[:len(cmds)])), "commands differ"
+    t_truth = truth_epochs(sc, len(truth))
+    want = np.array([[s.lat_rad[0], s.lon_rad[0], s.alt_m[0], *s.vel_enu_mps[0]]
+                     for s in (off.flight.truth(t_truth[i:i + 1]) for i in range(len(t_truth)))])
+    assert np.array_equal(truth, want)
 
 
 def test_no_command_topic_program_flies_and_bad_commands_are_refused(hyper_nav_graph):

@@ -39,7 +39,7 @@ from hyper_nav_filter.core.fusion import FusionEngine
 from hyper_nav_filter.core.measurements import GnssPosition, GnssVelocity
 from hyper_nav_filter.core.stream_runner import StreamRunner
 from hyper_nav_sim.core.commanded_flight import CommandedFlight, CommandLoop, flight_of_scenario
-from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu
+from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu, FlownRaw
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
 from hyper_nav_sim.core.scenario import Scenario
 
@@ -142,7 +142,12 @@ def fly_on_navigation(sc: Scenario, stream: str = "delayed", gnss_outages=(), la
     eng = FusionEngine(fcfg, sc.filter_initial_state())
     imu = FlownImu(sc, flight)
     commands, h = [], flight.step_s
-    run = StreamRunner(eng, [_GnssFixes(FlownFixes(sc, flight, gnss_outages), late_inputs)])
+    sources = (sc.data.get("filter") or {}).get("sources") or {}
+    if any(v.get("type") not in ("imu", "gnss_fix", "gnss_vel") for v in sources.values()):
+        raise ValueError(f"scenario {sc.name}: fly_on_navigation flies the loosely coupled filter (IMU and GNSS "
+                         f"fixes); filter.sources declares {sorted(v.get('type') for v in sources.values())}")
+    fixes = FlownRaw(sc, flight, gnss_outages) if "raw" in sc.data["gnss"] else FlownFixes(sc, flight, gnss_outages)
+    run = StreamRunner(eng, [_GnssFixes(fixes, late_inputs)])
     last_nav = None
 
     def act(sols):
@@ -191,30 +196,48 @@ class _GnssFixes:
     node's order of arrival: each before the IMU sample at its own stamp (it
     arrived before that sample), or, when ``late`` names it (the bag's
     ``nav/late_inputs``: {(topic, stamp_ns): after_imu_ns}), right after the
-    IMU sample it followed there (``replay_order.live_order``'s rule)."""
+    IMU sample it followed there (``replay_order.live_order``'s rule; at once
+    when that sample is in already: a receiver epoch exists only once the
+    flight is flown past it, ``FlownRaw``)."""
 
     def __init__(self, fixes: FlownFixes, late: dict | None = None):
         self.fixes, self.late = fixes, dict(late or {})
         self.held: dict[int, list] = {}             # IMU stamp (ns) -> measurements fed right after it
+        self.last_imu_ns = -1                       # the newest IMU sample added (ns)
 
     def before(self, eng, t):
-        for g in self.fixes.until(t + 1e-9):
-            sec, nsec = s_to_stamp_fields(float(g.t_s[0]))
+        for t_s, lat, lon, alt, vel, pos_cov, vel_cov in _fix_rows(self.fixes.until(t + 1e-9)):
+            sec, nsec = s_to_stamp_fields(t_s)
             ns, tg = sec * 1_000_000_000 + nsec, sec + nsec * 1e-9
-            lat, lon = (np.deg2rad(float(np.rad2deg(x))) for x in (g.lat_rad[0], g.lon_rad[0]))
-            for topic, m in (("gnss/fix", GnssPosition(tg, lat, lon, float(g.alt_m[0]),
-                                                       np.diag(g.pos_sigma_enu_m**2))),
-                             ("gnss/vel", GnssVelocity(tg, g.vel_enu_mps[0], np.diag(g.vel_sigma_enu_mps**2)))):
+            lat, lon = (np.deg2rad(float(np.rad2deg(x))) for x in (lat, lon))
+            for topic, m in (("gnss/fix", GnssPosition(tg, lat, lon, alt, pos_cov)),
+                             ("gnss/vel", GnssVelocity(tg, vel, vel_cov))):
                 after = self.late.get((topic, ns))
-                if after is None:
+                if after is None or after <= self.last_imu_ns:   # on time, or late behind a sample already in
                     eng.add_measurement(m)
                 else:
                     self.held.setdefault(after, []).append(m)
 
     def until(self, eng, t):
         sec, nsec = s_to_stamp_fields(t)
-        for m in self.held.pop(sec * 1_000_000_000 + nsec, ()):
+        self.last_imu_ns = sec * 1_000_000_000 + nsec
+        for m in self.held.pop(self.last_imu_ns, ()):
             eng.add_measurement(m)
+
+
+def _fix_rows(items):
+    """(t_s, lat_rad, lon_rad, alt_m, vel_enu_mps, pos_cov, vel_cov) of white-noise fixes (``GnssFixes``
+    of one epoch) or of the receiver's epochs that have a fix (``GnssEpoch``), as the GNSS node sends them."""
+    for g in items:
+        if hasattr(g, "fix"):                        # a receiver epoch: its least-squares fix, if any
+            f = g.fix
+            if f is not None:
+                yield (float(g.t_s), float(f.lat_rad), float(f.lon_rad), float(f.alt_m),
+                       np.asarray(f.vel_enu_mps, float), np.asarray(f.cov_pos_enu_m2, float),
+                       np.asarray(f.cov_vel_enu_m2ps2, float))
+        else:
+            yield (float(g.t_s[0]), float(g.lat_rad[0]), float(g.lon_rad[0]), float(g.alt_m[0]), g.vel_enu_mps[0],
+                   np.diag(g.pos_sigma_enu_m**2), np.diag(g.vel_sigma_enu_mps**2))
 
 
 def late_inputs_of(bag) -> dict:

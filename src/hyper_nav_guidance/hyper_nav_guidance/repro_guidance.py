@@ -24,9 +24,12 @@ down-/cross-range error and navigation error (3-D, at the last navigation
 stamp used) at the target, and the commands' RMS difference from the
 truth-fed loop's at the same stamps. Data: simulated world (white-noise
 GNSS fixes of ``gnss_model``, the scenario's IMU error model), the filter
-model of the scenario; not the raw-GNSS realistic world.
+model of the scenario; with ``--scenario guidance_glide_realistic`` the
+realistic world: the raw-GNSS receiver (``gnss.raw``) and its least-squares
+fixes, the blackouts as its own loss of lock (``FlownRaw``).
 
     ros2run hyper_nav_guidance repro_guidance --out results/guidance [--seeds 10] [--stream both|delayed|current] [--short]
+    ros2run hyper_nav_guidance repro_guidance --scenario guidance_glide_realistic --out results/guidance_realistic
 """
 from __future__ import annotations
 
@@ -111,8 +114,7 @@ def run(out: pathlib.Path, seeds: int, stream: str, scenario: str = "guidance_gl
             summary[name]["miss_ratio_to_truth"] = summary[name]["miss_mean_m"] / max(summary["truth"]["miss_mean_m"],
                                                                                       1e-9)
     result = {"scenario": scenario, "stream": stream, "seeds": seeds, "summary": summary, "runs": rows,
-              "data": "simulated world: white-noise loosely coupled GNSS fixes, the scenario's IMU error model; "
-                      "closed loop offline on the live graph's cores (closed_loop.py)",
+              "data": _data_note(base),
               "apply_delay_s": {"truth": 0.1, "truth_1.1s": DELAYED_APPLY_S, **APPLY_S},
               "pending": [] if stream == "both" else [f"only the {stream} stream was run (--stream both for both)"]}
     (out / "repro_guidance.json").write_text(json.dumps(result, indent=1, default=float))
@@ -166,6 +168,16 @@ def _plots(out, tracks, summary, sc):
     fig.tight_layout()
     fig.savefig(out / "commands.png", dpi=110)
     plt.close(fig)
+
+
+def _data_note(sc) -> str:
+    """What the figures hold on (the scenario's GNSS model)."""
+    loop = "; closed loop offline on the live graph's cores (closed_loop.py)"
+    if "raw" in sc.data["gnss"]:
+        return ("realistic world (world.model " + sc.world_config().model + "): the raw-GNSS receiver's least-squares "
+                "fixes with its own covariance, loosely coupled; blackouts as the receiver's loss of lock; the "
+                "scenario's IMU error model" + loop)
+    return "simulated world: white-noise loosely coupled GNSS fixes, the scenario's IMU error model" + loop
 
 
 def main(argv=None):

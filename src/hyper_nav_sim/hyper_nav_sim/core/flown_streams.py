@@ -20,12 +20,20 @@ different moments and get the same samples bit for bit.
   antenna truth plus white noise, stream ``gnss``) one epoch at a time,
   drawn for every epoch and dropped inside ``gnss.outages_s`` (and any
   outages given).
+* ``FlownRaw``: the raw-GNSS receiver (``gnss.raw``: broadcast-ephemeris
+  constellation, the scenario's world, the receiver's lock model and
+  least-squares fix; stream ``gnss_raw``), one epoch at a time
+  (``ReceiverRun(lazy=True)``: each epoch's antenna truth taken when the
+  flight is flown ``ANTENNA_DIFF_S`` past it); the epochs inside the outages
+  given are computed with every satellite's lock lost (the receiver's own
+  blackout: no measurement, no fix, and reacquisition after it as its lock
+  model says).
 * ``FlownMag``: the WMM field (``mag_model.simulate_magnetometer_T``,
   stream ``mag``) one epoch at a time.
 
 What these do not simulate on a commanded flight is refused at construction
 with the reason (ValueError naming the block): the elastic lever arm and its
-load sensor (seed 000), the raw-GNSS receiver (``gnss.raw``), a white map
+load sensor (seed 000), the receiver's tracking loops (``gnss.raw.tracking``), a white map
 error of the magnetometer, the barometer and the radar
 (``refuse_commanded``). Those models take the whole trajectory at once.
 """
@@ -119,6 +127,42 @@ class FlownFixes:
             if not any(a <= tg < b for a, b in self.outages):
                 out.append(g)
             self.j += 1
+        return out
+
+
+class FlownRaw:
+    """Raw-GNSS receiver epochs of a commanded flight, one epoch at a time (module doc)."""
+
+    def __init__(self, sc, flight, outages=()):
+        import copy
+
+        from .gnss.receiver import ANTENNA_DIFF_S
+        from .simulate import gnss_receiver
+        from .scenario import Scenario
+        if "raw" not in sc.data["gnss"]:
+            raise ValueError("FlownRaw: the scenario has no gnss.raw block (FlownFixes draws white-noise fixes)")
+        if outages:                              # the receiver's own blackout: lock lost in the windows
+            data = copy.deepcopy(sc.data)
+            lock = data["gnss"]["raw"].setdefault("lock", {})
+            lock["outages"] = list(lock.get("outages") or []) + [[float(a), float(min(b, 1e9))] for a, b in outages]
+            sc = Scenario(sc.path, data)
+        self.flight, self.lead_s = flight, ANTENNA_DIFF_S
+        self.t_s = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
+        self.run = gnss_receiver(sc).run(flight, self.t_s, sc.rng("gnss_raw"), lazy=True)
+        self.k = 0
+
+    @property
+    def done(self) -> bool:
+        f = self.flight
+        return self.k >= len(self.t_s) or (f.finished and self.t_s[self.k] + self.lead_s > f.flown_s + _EPS)
+
+    def until(self, t_s: float) -> list:
+        """The receiver epochs (``GnssEpoch``) stamped <= t_s whose antenna truth is flown."""
+        out = []
+        t_max = min(t_s, self.flight.flown_s - self.lead_s)
+        while self.k < len(self.t_s) and self.t_s[self.k] <= t_max + _EPS:
+            out.append(self.run.epoch(self.k))
+            self.k += 1
         return out
 
 

@@ -16,8 +16,10 @@ latency); header.stamp stays the measurement epoch.
 
 On a commanded flight (issue 36) the fixes are those of the steered flight,
 drawn epoch by epoch as the node's mirror of it is flown
-(``core.flown_streams.FlownFixes``, none in ``gnss.outages_s``); the raw
-receiver (``gnss.raw``) is refused there (ValueError at start).
+(``core.flown_streams.FlownFixes``, none in ``gnss.outages_s``; with
+``gnss.raw`` the receiver's epochs, ``FlownRaw``, each once the flight is
+flown 0.05 s past it); the receiver's tracking option (and with it the
+aiding loop) is refused there (ValueError at start).
 
 Aiding loop (issue 23; ``gnss.raw.tracking.aiding_source: nav_state``, off by
 default): the node subscribes ``nav/delayed/state`` (hyper_nav_msgs/NavState,
@@ -38,7 +40,7 @@ from hyper_nav_filter.ros_util import declare_params, latched_qos, run_node
 
 from ..core import simulate
 from ..core.commanded_flight import is_commanded
-from ..core.flown_streams import FlownFixes
+from ..core.flown_streams import FlownFixes, FlownRaw
 from ..gnss_messages import fill_gnss_ephemeris
 from .params import GNSS, GNSS_FROM_SCENARIO, with_scenario
 from .sensor_base import ClockDrivenSensor
@@ -53,14 +55,19 @@ class GnssNode(ClockDrivenSensor):
         self.pub_fix = self.create_publisher(NavSatFix, "gnss/fix", self.qos)
         self.pub_vel = self.create_publisher(TwistWithCovarianceStamped, "gnss/vel", self.qos)
         self.raw_mode = "raw" in sc.data["gnss"]
-        if is_commanded(sc):                 # issue 36: the fixes of the steered flight, epoch by epoch
-            self.flown = FlownFixes(sc, self.follow_flight(self._on_flown).flight)     # refuses gnss.raw
-            self.raw_mode = False
-            return
         # subscriptions gnss/raw must see before data flows (run_graph: the recorder,
         # plus the fusion node when it runs tightly coupled); -1: min(1, min_subscribers)
         raw_need = p["raw_min_subscribers"]
         self.raw_min_subscribers = min(1, self.min_subscribers) if raw_need < 0 else raw_need
+        if is_commanded(sc):                 # issue 36: the epochs of the steered flight, one by one
+            flight = self.follow_flight(self._on_flown).flight
+            if self.raw_mode:
+                self._raw_publishers()
+                self.aiding = None
+                self.flown = FlownRaw(sc, flight)                      # refuses the tracking option
+            else:
+                self.flown = FlownFixes(sc, flight)
+            return
         if self.raw_mode:
             self._setup_raw(sc)
         else:
@@ -78,10 +85,7 @@ class GnssNode(ClockDrivenSensor):
             return self._setup_aided(sc, trk, GnssEphemeris, GnssMeasurements)
         self.aiding = None
         self.epochs = simulate.gnss_raw_stream(sc, sc.trajectory())
-        self.pub_raw = self.create_publisher(GnssMeasurements, "gnss/raw", self.qos)
-        self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched_qos(200))
-        self._eph_cls, self._raw_cls = GnssEphemeris, GnssMeasurements
-        self._published_eph = set()
+        self._raw_publishers()
         with_fix = [i for i, e in enumerate(self.epochs) if e.fix is not None]
         self.fixes = _FixArrays([self.epochs[i] for i in with_fix])
         self.pos_cov = [self.epochs[i].fix.cov_pos_enu_m2 for i in with_fix]
@@ -89,6 +93,13 @@ class GnssNode(ClockDrivenSensor):
         self.schedule([e.t_s for e in self.epochs], self.pub_raw, self._make_raw)
         self.schedule(self.fixes.t_s, self.pub_fix, self._make_fix)
         self.schedule(self.fixes.t_s, self.pub_vel, self._make_vel)
+
+    def _raw_publishers(self):
+        from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements
+        self.pub_raw = self.create_publisher(GnssMeasurements, "gnss/raw", self.qos)
+        self.pub_eph = self.create_publisher(GnssEphemeris, "gnss/ephemeris", latched_qos(200))
+        self._eph_cls, self._raw_cls = GnssEphemeris, GnssMeasurements
+        self._published_eph = set()
 
     def _setup_aided(self, sc, trk, GnssEphemeris, GnssMeasurements):
         """Closed aiding loop: epochs computed at release with the held nav/state."""
@@ -155,7 +166,9 @@ class GnssNode(ClockDrivenSensor):
         return pubs + [(self.pub_raw, self.raw_min_subscribers)] if self.raw_mode else pubs
 
     def _make_raw(self, i: int):
-        e = self._epoch(i)
+        return self._raw_msg(self._epoch(i))
+
+    def _raw_msg(self, e):
         for eph in e.ephemeris_set:            # ephemerides before the first measurement using them
             key = (eph.system, eph.prn, eph.toe)
             if key not in self._published_eph:
@@ -187,7 +200,14 @@ class GnssNode(ClockDrivenSensor):
 
     def _on_flown(self):
         for g in self.flown.until(float("inf")):
-            pos_cov, vel_cov = np.diag(g.pos_sigma_enu_m**2), np.diag(g.vel_sigma_enu_mps**2)
+            if self.raw_mode:                # a receiver epoch: its measurements, then its fix if it has one
+                self.schedule([g.t_s], self.pub_raw, lambda i, e=g: self._raw_msg(e))
+                if g.fix is None:
+                    continue
+                pos_cov, vel_cov = g.fix.cov_pos_enu_m2, g.fix.cov_vel_enu_m2ps2
+                g = _FixArrays([g])
+            else:
+                pos_cov, vel_cov = np.diag(g.pos_sigma_enu_m**2), np.diag(g.vel_sigma_enu_mps**2)
             self.schedule(g.t_s, self.pub_fix, lambda i, g=g, c=pos_cov: self._fix_msg(g, i, c))
             self.schedule(g.t_s, self.pub_vel, lambda i, g=g, c=vel_cov: self._vel_msg(g, i, c))
 

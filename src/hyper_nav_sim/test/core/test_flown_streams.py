@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from hyper_nav_sim.core.commanded_flight import CommandLoop, flight_of_scenario, is_commanded
-from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu, FlownMag, refuse_commanded
+from hyper_nav_sim.core.flown_streams import FlownFixes, FlownImu, FlownMag, FlownRaw, refuse_commanded
 from hyper_nav_sim.core.scenario import Scenario, load_scenario
 
 DURATION_S = 4.0
@@ -87,6 +87,8 @@ def test_models_that_need_the_whole_trajectory_are_refused_by_name():
         FlownImu(_scenario(**{"lever_arm": {"enabled": True}}), f)
     with pytest.raises(ValueError, match="gnss.raw"):
         FlownFixes(_scenario(**{"gnss.raw": {}}), f)
+    with pytest.raises(ValueError, match="no gnss.raw block"):
+        FlownRaw(sc, f)
     with pytest.raises(ValueError, match="white_uniform"):
         FlownMag(_scenario(**{"magnetometer.map_error_model": "white_uniform",
                               "magnetometer.map_error_rms_nT": 50.0}), f)
@@ -108,3 +110,36 @@ def test_no_command_is_awaited_after_the_navigation_ends():
         loop2.receive(j * 0.1, 0.0, 1.0)
     assert loop2.advance(DURATION_S) == pytest.approx(2.2)
     assert loop2.waiting_for_s() == pytest.approx(2.1)
+
+
+def _raw_draw(sc, stride_s, outages=()):
+    f = _commanded(sc)
+    raw = FlownRaw(sc, f, outages)
+    out, t = [], 0.0
+    while not raw.done:
+        t += stride_s
+        f.advance(t)
+        for e in raw.until(math.inf):
+            fix = (np.nan,) * 3 if e.fix is None else (e.fix.lat_rad, e.fix.lon_rad, e.fix.alt_m)
+            out.append((e.t_s, len(e.prn), *fix, float(np.sum(e.pseudorange_m))))
+    return np.array(out)
+
+
+def test_the_receiver_epochs_do_not_depend_on_how_the_flight_was_advanced():
+    """FlownRaw (the raw-GNSS receiver, realistic world): the same epochs, measurements and fixes
+    whether the flight is advanced 0.1 or 1.3 s at a time; the epochs inside an outage have no fix."""
+    sc = _scenario()
+    data = copy.deepcopy(load_scenario("guidance_glide_realistic").data)
+    data.update(duration_s=DURATION_S, flight={**data["flight"], "duration_s": DURATION_S})
+    sc = Scenario(sc.path, data)
+    a, b = _raw_draw(sc, 0.1), _raw_draw(sc, 1.3)
+    # every epoch but the last (its antenna truth needs the flight 0.05 s past the end)
+    assert len(a) == int(round(DURATION_S * sc["gnss.rate_hz"])) - 1
+    assert np.array_equal(a, b, equal_nan=True) and np.isfinite(a[:, 2]).all() and (a[:, 1] >= 6).all()
+    c = _raw_draw(sc, 0.1, outages=((1.0, 2.0),))
+    inside = (c[:, 0] >= 1.0 - 1e-9) & (c[:, 0] < 2.0 - 1e-9)
+    assert inside.sum() == 10 and np.isnan(c[inside, 2]).all() and np.isfinite(c[c[:, 0] < 1.0, 2]).all()
+    with pytest.raises(ValueError, match="tracking"):
+        data2 = copy.deepcopy(data)
+        data2["gnss"]["raw"]["tracking"] = {}
+        FlownRaw(Scenario(sc.path, data2), flight_of_scenario(sc)[1])

@@ -323,9 +323,9 @@ class GnssReceiverSim:
     # ---- antenna truth ------------------------------------------------------------------------------
     def antenna_truth(self, trajectory, t_s):
         """Antenna ECEF position (N,3), velocity (N,3) and acceleration (N,3, central
-        difference over +-0.05 s) from ``trajectory.truth``."""
+        difference over +-ANTENNA_DIFF_S) from ``trajectory.truth``."""
         t = np.atleast_1d(np.asarray(t_s, float))
-        h = 0.05
+        h = ANTENNA_DIFF_S
         tt = np.concatenate([t, t - h, t + h])
         tr = trajectory.truth(tt)
         lat, lon, alt = tr.lat_rad, tr.lon_rad, tr.alt_m
@@ -358,20 +358,35 @@ class GnssReceiverSim:
         run = self.run(trajectory, t_epochs_s, rng)
         return [run.epoch(k) for k in range(len(run.t_ep))]
 
-    def run(self, trajectory, t_epochs_s, rng: np.random.Generator | None = None) -> "ReceiverRun":
+    def run(self, trajectory, t_epochs_s, rng: np.random.Generator | None = None,
+            lazy: bool = False) -> "ReceiverRun":
         """The same simulation one epoch at a time (:meth:`ReceiverRun.epoch`), for a
-        receiver aided by a navigation state that arrives while it runs (gnss_node)."""
-        return ReceiverRun(self, trajectory, t_epochs_s, rng)
+        receiver aided by a navigation state that arrives while it runs (gnss_node).
+        ``lazy``: the antenna truth of epoch k is taken when epoch k is computed
+        (a flight flown as it goes, ``core.flown_streams.FlownRaw``: it must be
+        flown to t_k + ``ANTENNA_DIFF_S``); not with the tracking option."""
+        return ReceiverRun(self, trajectory, t_epochs_s, rng, lazy=lazy)
+
+
+ANTENNA_DIFF_S = 0.05      # the antenna acceleration's central difference: truth is needed to t + this
 
 
 class ReceiverRun:
     """State of one receiver simulation between epochs; epochs in ascending order."""
 
-    def __init__(self, sim: GnssReceiverSim, trajectory, t_epochs_s, rng):
+    def __init__(self, sim: GnssReceiverSim, trajectory, t_epochs_s, rng, lazy: bool = False):
         c = self.cfg = sim.cfg
         self.sim, self.rng = sim, rng
         t_ep = self.t_ep = np.asarray(t_epochs_s, float)
-        self.r_a, self.v_a, self.a_a = sim.antenna_truth(trajectory, t_ep)
+        self.lazy, self.trajectory = bool(lazy), trajectory
+        if lazy:
+            if c.tracking is not None:
+                raise ValueError("gnss.raw.tracking: the receiver's tracking loops are not simulated on a flight "
+                                 "flown as it goes (a commanded flight): remove the tracking block")
+            self.r_a, self.v_a, self.a_a = (np.full((len(t_ep), 3), np.nan) for _ in range(3))
+            self._have = np.zeros(len(t_ep), bool)
+        else:
+            self.r_a, self.v_a, self.a_a = sim.antenna_truth(trajectory, t_ep)
         self.clk_b, self.clk_d = _sample_clock(c, t_ep, rng)
         self.lock = LockModel(c.lock)
         self.trk = None
@@ -418,6 +433,10 @@ class ReceiverRun:
         """Epoch k; ``aiding``: an :class:`.aiding.AidingInput` (``nav_state``
         aiding) or None."""
         c, sim, rng, trk = self.cfg, self.sim, self.rng, self.trk
+        if self.lazy and not self._have[k]:      # the antenna truth of this epoch, now that it is flown
+            r, v, a = sim.antenna_truth(self.trajectory, self.t_ep[k:k + 1])
+            self.r_a[k], self.v_a[k], self.a_a[k] = r[0], v[0], a[0]
+            self._have[k] = True
         t_ep, r_a, v_a, a_a, clk_b, clk_d = self.t_ep, self.r_a, self.v_a, self.a_a, self.clk_b, self.clk_d
         lock, iono_model, sig_fn = self.lock, self.iono_model, self.sig_fn
         blocks, vis_cache = self.blocks, self.vis_cache
