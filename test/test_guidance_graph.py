@@ -202,3 +202,18 @@ def test_no_command_topic_program_flies_and_bad_commands_are_refused(hyper_nav_g
     assert np.abs((x[:, 0] - prog.lat_rad) * 6.4e6).max() < 1e-4
     assert np.abs(x[:, 3:] - prog.vel_enu_mps).max() < 1e-7
     assert math.isfinite(x[-1, 2])
+
+
+def test_fixture_flies_a_guidance_node_on_the_current_time_state(hyper_nav_guidance_loop):
+    """The user fixture on nav/state: the graph with the sensors and the fusion node, a guidance node
+    (here the project's own executable, as a user would pass theirs) in the loop; every command taken,
+    the live flight the commands' flight bit for bit, and the same commands as the offline loop fed
+    the run's late inputs."""
+    run = hyper_nav_guidance_loop(("hyper_nav_guidance", "guidance_node"), scenario="guidance_glide",
+                                  overrides={"duration_s": 20.0, "graph.real_time_factor": 5.0},
+                                  nav_topic="nav/state")
+    assert run.replay_equal
+    assert int(run.truth_node["commands missed"]) == 0 and int(run.truth_node["commands accepted"]) == 191
+    assert not any(k.startswith("commands refused") for k in run.truth_node)
+    off = fly_on_navigation(run.run.scenario, "current", late_inputs=late_inputs_of(run.bag))
+    assert np.array_equal(np.array(run.commands), np.array(off.commands[:len(run.commands)]))

@@ -16,7 +16,11 @@ Fixture:
       ``truth_node`` (its last /diagnostics: commands accepted / refused /
       missed) and ``replay_equal`` (the recorded bag's truth/state equals the
       flight its recorded guidance/command gives offline, bit for bit; the
-      collected messages without ``record``). Your node should wait
+      collected messages without ``record``). ``nav_topic="nav/state"`` (or
+      any navigation topic) starts the sensor nodes and the fusion node as
+      well: the sensors fly the steered flight (``flight/steps``), so your
+      node flies on navigation of its own flight (tested with the project's
+      guidance node in ``test/test_guidance_graph.py``). Your node should wait
       for its navigation input before anything else (the clock starts once
       its command publisher exists).
 
