@@ -105,3 +105,19 @@ def test_malformed_scenario_fails_naming_the_field(tmp_path, field, value, expec
     assert proc.returncode != 0
     assert expect in proc.stderr, proc.stderr[-2000:]
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.graph
+def test_a_node_refusing_the_scenario_at_start_stops_the_run_with_its_reason(tmp_path):
+    """A node that dies before the clock starts (here the barometer, which refuses a commanded flight:
+    issue 36) would be waited for forever by the time source: the run stops at once, names the node,
+    prints the node's own error, and exits non-zero."""
+    sc = tmp_path / "glide_baro.yaml"
+    sc.write_text("extends: guidance_glide\nname: glide_baro\nbarometer: {rate_hz: 10.0}\n")
+    run_graph = os.path.join(get_package_prefix("hyper_nav_workbench"), "lib", "hyper_nav_workbench", "run_graph")
+    proc = subprocess.run([run_graph, "--scenario", str(sc), "--set", "duration_s=5"],
+                          capture_output=True, text=True, timeout=300)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert "node 'baro' died before the flight started" in out, out[-3000:]
+    assert "the barometer node is not simulated on a commanded flight" in out, out[-3000:]

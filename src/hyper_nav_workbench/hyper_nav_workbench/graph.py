@@ -27,7 +27,8 @@ start-up. A ``monitor`` node reports dead nodes and missing streams on
 
 Faults: a node that dies (crash, kill -9) is reported with its exit status
 and the time; the command line keeps the graph flying to the end of the
-scenario (stopping at once if the time source or the recorder died), then
+scenario (stopping at once if the time source or the recorder died, or a
+node died before the clock started: the time source waits for it), then
 stops every node, closes the bag and writes the report, which fails naming the
 dead node. The Python API raises instead (``on_node_death="raise"``, the
 default; ``"continue"`` behaves like the command line). SIGINT and SIGTERM
@@ -79,6 +80,8 @@ CORE_EXECUTABLES = {"truth": ("hyper_nav_sim", "truth_node"),
 CORE_ROS_NAMES = {"foxglove": "foxglove_view"}
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
 CLOCK_SOURCES = ("truth", "player")          # publish /clock; their normal exit ends the run
+# what a time source logs once every node it waits for is there and the clock starts
+STARTED_LOG = {"truth": "subscribers matched; flying", "player": "replaying "}
 
 
 class _NoAliasDumper(yaml.SafeDumper):
@@ -432,6 +435,24 @@ class Graph:
     def log(self, name: str) -> str:
         return (self.log_dir / f"{name}.log").read_text(errors="replace")
 
+    def _last_error(self, name: str) -> str:
+        """The last non-empty line of a node's log (a dead node's exception, usually)."""
+        try:
+            lines = [ln.strip() for ln in self.log(name).splitlines() if ln.strip()]
+        except FileNotFoundError:
+            return ""
+        return lines[-1][:500] if lines else ""
+
+    def _source_started(self) -> bool:
+        """Whether the time source has started its clock (its log says so)."""
+        for name in CLOCK_SOURCES:
+            if name in self.procs:
+                try:
+                    return STARTED_LOG[name] in self.log(name)
+                except FileNotFoundError:
+                    return False
+        return True
+
     def _poll_exits(self) -> list[dict]:
         """Nodes that exited since the last poll, other than a time source ending normally."""
         new = []
@@ -445,6 +466,10 @@ class Graph:
             new.append(event)
             print(f"[run_graph] node '{name}' died ({event['how']}) {event['t_wall_s']:.1f} s after the start; "
                   f"log: {self.log_dir / (name + '.log')}", flush=True)
+            last = self._last_error(name)
+            if last:
+                event["last_log_line"] = last
+                print(f"[run_graph]   {name}: {last}", flush=True)
             if self.on_node_death == "raise":
                 raise NodeDied(f"node '{name}' {event['how']}; log:\n{self.log(name)[-3000:]}")
         return new
@@ -497,6 +522,11 @@ class Graph:
             fatal = [e for e in self._poll_exits() if e["node"] in CLOCK_SOURCES + ("recorder",)]
             if fatal:
                 self.stop_reason = f"node '{fatal[0]['node']}' died: nothing more can be flown or recorded"
+                break
+            if self.exits and not self._source_started():
+                # the time source waits for every node before the clock starts: it would wait forever
+                self.stop_reason = (f"node '{self.exits[0]['node']}' died before the flight started (the time "
+                                    f"source waits for it): nothing can be flown")
                 break
             if time.monotonic() > deadline:
                 name = next(n for n in CLOCK_SOURCES if n in self.procs)
