@@ -100,13 +100,27 @@ def _bag_rows(bag, topic):
     return np.array(sorted(rows))
 
 
-def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
-    over = {"duration_s": 20.0, "graph.real_time_factor": 5.0}
-    run = hyper_nav_graph("guidance_glide", overrides=over, record=True,
-                          topics={"/diagnostics": DiagnosticArray, "guidance/command": GlideCommand})
+def _assert_offline_equals(run, cmds, truth):
+    """The offline loop fed the run's late inputs where they arrived: the recorded commands and truth, bit for bit."""
     sc = run.scenario
-    status = _truth_status(run.messages["/diagnostics"])
-    cmds, truth = bag_loop(run.bag)
+    off = fly_on_navigation(sc, "current", late_inputs=late_inputs_of(run.bag))
+    assert np.array_equal(np.array(cmds), np.array(off.commands[:len(cmds)])), "commands differ"
+    t_truth = truth_epochs(sc, len(truth))
+    want = np.array([[s.lat_rad[0], s.lon_rad[0], s.alt_m[0], *s.vel_enu_mps[0]]
+                     for s in (off.flight.truth(t_truth[i:i + 1]) for i in range(len(t_truth)))])
+    assert np.array_equal(truth, want)
+
+
+def _loop_run(hyper_nav_graph, scenario, duration_s, topics):
+    """A recorded navigation loop: (run, its truth node's last status, commands, truth rows)."""
+    run = hyper_nav_graph(scenario, overrides={"duration_s": duration_s, "graph.real_time_factor": 5.0},
+                          record=True, topics={"/diagnostics": DiagnosticArray, **topics})
+    return (run, _truth_status(run.messages["/diagnostics"]), *bag_loop(run.bag))
+
+
+def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
+    run, status, cmds, truth = _loop_run(hyper_nav_graph, "guidance_glide", 20.0, {"guidance/command": GlideCommand})
+    sc = run.scenario
     # the loop went round on navigation: a command for every grid stamp 1.0 .. 20.0 s, all taken, none missed
     assert len(cmds) == 191 and int(status["commands accepted"]) == int(status["commands received"]) == 191
     assert int(status["commands missed"]) == 0 and not any(k.startswith("commands refused") for k in status)
@@ -128,24 +142,17 @@ def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
     assert abs(flight.truth(np.array([20.0])).alt_m[0] - prog.alt_m[0]) > 10.0 or \
         abs(flight.truth(np.array([20.0])).lat_rad[0] - prog.lat_rad[0]) * 6.4e6 > 10.0
     # live == offline on the recorded bag: the same cores, the inputs where they arrived live
-    off = fly_on_navigation(sc, "current", late_inputs=late_inputs_of(run.bag))
-    assert np.array_equal(np.array(cmds), np.array(off.commands[:len(cmds)])), "commands differ"
-    t_truth = truth_epochs(sc, len(truth))
-    want = np.array([[s.lat_rad[0], s.lon_rad[0], s.alt_m[0], *s.vel_enu_mps[0]]
-                     for s in (off.flight.truth(t_truth[i:i + 1]) for i in range(len(t_truth)))])
-    assert len(truth) == 1001 and np.array_equal(truth, want)
+    assert len(truth) == 1001
+    _assert_offline_equals(run, cmds, truth)
 
 
 def test_guidance_on_navigation_with_the_raw_receiver_live_equals_offline(hyper_nav_graph):
     """The realistic world: the GNSS node's receiver (gnss.raw) on the steered flight, each epoch once
     the flight is flown past it (FlownRaw); its fixes loosely coupled. Nothing lost, every command
     taken, the receiver's epochs those of the recorded flight, live == offline bit for bit."""
-    over = {"duration_s": 10.0, "graph.real_time_factor": 5.0}
-    run = hyper_nav_graph("guidance_glide_realistic", overrides=over, record=True,
-                          topics={"/diagnostics": DiagnosticArray, "gnss/raw": GnssMeasurements})
+    run, status, cmds, truth = _loop_run(hyper_nav_graph, "guidance_glide_realistic", 10.0,
+                                         {"gnss/raw": GnssMeasurements})
     sc = run.scenario
-    status = _truth_status(run.messages["/diagnostics"])
-    cmds, truth = bag_loop(run.bag)
     assert len(cmds) == 91 and int(status["commands accepted"]) == 91 and int(status["commands missed"]) == 0
     flight = replay_commands(sc, cmds).flight
     epochs = FlownRaw(sc, flight).until(sc["duration_s"])
@@ -156,12 +163,7 @@ def test_guidance_on_navigation_with_the_raw_receiver_live_equals_offline(hyper_
     with_fix = [e for e in epochs if e.fix is not None]
     assert len(got) == len(with_fix) >= 90
     assert np.array_equal(got[:, 3], [float(e.fix.alt_m) for e in with_fix])
-    off = fly_on_navigation(sc, "current", late_inputs=late_inputs_of(run.bag))
-    assert np.array_equal(np.array(cmds), np.array(off.commands[:len(cmds)])), "commands differ"
-    t_truth = truth_epochs(sc, len(truth))
-    want = np.array([[s.lat_rad[0], s.lon_rad[0], s.alt_m[0], *s.vel_enu_mps[0]]
-                     for s in (off.flight.truth(t_truth[i:i + 1]) for i in range(len(t_truth)))])
-    assert np.array_equal(truth, want)
+    _assert_offline_equals(run, cmds, truth)
 
 
 def test_no_command_topic_program_flies_and_bad_commands_are_refused(hyper_nav_graph):
