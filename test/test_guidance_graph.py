@@ -119,10 +119,10 @@ def _loop_run(hyper_nav_graph, scenario, duration_s, topics):
 
 
 def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
-    run, status, cmds, truth = _loop_run(hyper_nav_graph, "guidance_glide", 20.0, {"guidance/command": GlideCommand})
+    run, status, cmds, truth = _loop_run(hyper_nav_graph, "guidance_glide", 10.0, {"guidance/command": GlideCommand})
     sc = run.scenario
-    # the loop went round on navigation: a command for every grid stamp 1.0 .. 20.0 s, all taken, none missed
-    assert len(cmds) == 191 and int(status["commands accepted"]) == int(status["commands received"]) == 191
+    # the loop went round on navigation: a command for every grid stamp 1.0 .. 10.0 s, all taken, none missed
+    assert len(cmds) == 91 and int(status["commands accepted"]) == int(status["commands received"]) == 91
     assert int(status["commands missed"]) == 0 and not any(k.startswith("commands refused") for k in status)
     # the sensors flew the flight the truth node flew (the commands' flight), bit for bit
     flight = replay_commands(sc, cmds).flight
@@ -130,19 +130,19 @@ def test_guidance_on_navigation_live_equals_offline(hyper_nav_graph):
     t, dth, dv = imu.until_flown()
     want = np.column_stack([t, dth / imu.dt_s, dv / imu.dt_s])[t <= sc["duration_s"] + 1e-9]
     got = _bag_rows(run.bag, "/imu/data_raw")
-    assert got.shape == want.shape == (1000, 7)
+    assert got.shape == want.shape == (500, 7)
     assert np.array_equal(got[:, 1:], want[:, 1:]) and np.abs(got[:, 0] - want[:, 0]).max() < 1e-9
     fixes = FlownFixes(sc, flight).until(sc["duration_s"])
     got = _bag_rows(run.bag, "/gnss/fix")
-    assert len(got) == len(fixes) == 200
+    assert len(got) == len(fixes) == 100
     assert np.array_equal(got[:, 3], [float(g.alt_m[0]) for g in fixes])
     assert np.array_equal(got[:, 1], [float(np.rad2deg(g.lat_rad[0])) for g in fixes])
-    # ... which is not the scheduled program's: the guidance steered it (km off at 20 s)
-    prog = DynamicTrajectory(**parse_flight(dict(sc.data["flight"]))).truth(np.array([20.0]))
-    assert abs(flight.truth(np.array([20.0])).alt_m[0] - prog.alt_m[0]) > 10.0 or \
-        abs(flight.truth(np.array([20.0])).lat_rad[0] - prog.lat_rad[0]) * 6.4e6 > 10.0
+    # ... which is not the scheduled program's: the guidance steered it (tens of m off at 10 s)
+    prog = DynamicTrajectory(**parse_flight(dict(sc.data["flight"]))).truth(np.array([10.0]))
+    assert abs(flight.truth(np.array([10.0])).alt_m[0] - prog.alt_m[0]) > 10.0 or \
+        abs(flight.truth(np.array([10.0])).lat_rad[0] - prog.lat_rad[0]) * 6.4e6 > 10.0
     # live == offline on the recorded bag: the same cores, the inputs where they arrived live
-    assert len(truth) == 1001
+    assert len(truth) == 501
     _assert_offline_equals(run, cmds, truth)
 
 
@@ -150,18 +150,18 @@ def test_guidance_on_navigation_with_the_raw_receiver_live_equals_offline(hyper_
     """The realistic world: the GNSS node's receiver (gnss.raw) on the steered flight, each epoch once
     the flight is flown past it (FlownRaw); its fixes loosely coupled. Nothing lost, every command
     taken, the receiver's epochs those of the recorded flight, live == offline bit for bit."""
-    run, status, cmds, truth = _loop_run(hyper_nav_graph, "guidance_glide_realistic", 10.0,
+    run, status, cmds, truth = _loop_run(hyper_nav_graph, "guidance_glide_realistic", 6.0,
                                          {"gnss/raw": GnssMeasurements})
     sc = run.scenario
-    assert len(cmds) == 91 and int(status["commands accepted"]) == 91 and int(status["commands missed"]) == 0
+    assert len(cmds) == 51 and int(status["commands accepted"]) == 51 and int(status["commands missed"]) == 0
     flight = replay_commands(sc, cmds).flight
     epochs = FlownRaw(sc, flight).until(sc["duration_s"])
     raw = sorted(run.messages["gnss/raw"], key=lambda m: stamp_to_s(m.header.stamp))
-    assert len(raw) == len(epochs) == 100
+    assert len(raw) == len(epochs) == 60
     assert all(list(m.pseudorange_m) == [float(x) for x in e.pseudorange_m] for m, e in zip(raw, epochs))
     got = _bag_rows(run.bag, "/gnss/fix")
     with_fix = [e for e in epochs if e.fix is not None]
-    assert len(got) == len(with_fix) >= 90
+    assert len(got) == len(with_fix) >= 54
     assert np.array_equal(got[:, 3], [float(e.fix.alt_m) for e in with_fix])
     _assert_offline_equals(run, cmds, truth)
 
@@ -212,10 +212,10 @@ def test_fixture_flies_a_guidance_node_on_the_current_time_state(hyper_nav_guida
     the live flight the commands' flight bit for bit, and the same commands as the offline loop fed
     the run's late inputs."""
     run = hyper_nav_guidance_loop(("hyper_nav_guidance", "guidance_node"), scenario="guidance_glide",
-                                  overrides={"duration_s": 20.0, "graph.real_time_factor": 5.0},
+                                  overrides={"duration_s": 10.0, "graph.real_time_factor": 5.0},
                                   nav_topic="nav/state")
     assert run.replay_equal
-    assert int(run.truth_node["commands missed"]) == 0 and int(run.truth_node["commands accepted"]) == 191
+    assert int(run.truth_node["commands missed"]) == 0 and int(run.truth_node["commands accepted"]) == 91
     assert not any(k.startswith("commands refused") for k in run.truth_node)
     off = fly_on_navigation(run.run.scenario, "current", late_inputs=late_inputs_of(run.bag))
     assert np.array_equal(np.array(run.commands), np.array(off.commands[:len(run.commands)]))

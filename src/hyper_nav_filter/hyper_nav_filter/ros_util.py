@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import array
+import os
 import signal
 import threading
 import time
@@ -100,7 +101,7 @@ def make_executor(kind: str = "single"):
     return SingleThreadedExecutor()
 
 
-def run_node(node_factory, args=None, linger_s: float = 0.3) -> None:
+def run_node(node_factory, args=None, linger_s: float = 0.3, exit_grace_s: float = 10.0) -> None:
     """Jazzy-style main: init, spin until shutdown or SIGINT/SIGTERM, clean up.
     The node spins in the executor its ``executor_kind`` names (``make_executor``;
     default ``single``).
@@ -113,8 +114,19 @@ def run_node(node_factory, args=None, linger_s: float = 0.3) -> None:
     run after the final status would publish messages its counts miss."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
+
+    def on_signal(signum, _frame):
+        if not stop.is_set():
+            # the orderly stop below takes well under a second; a process still there after
+            # exit_grace_s (a callback or the middleware's teardown blocked) exits anyway: a stopped
+            # graph, a killed launcher (parent-death SIGTERM), a test, never leave a node behind
+            watchdog = threading.Timer(exit_grace_s, os._exit, args=(128 + signum,))
+            watchdog.daemon = True
+            watchdog.start()
+        stop.set()
+
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+        signal.signal(sig, on_signal)
     node = None
     try:
         node = node_factory()
