@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import array
-import os
+import math
 import signal
 import threading
 import time
@@ -115,14 +115,14 @@ def run_node(node_factory, args=None, linger_s: float = 0.3, exit_grace_s: float
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
 
-    def on_signal(signum, _frame):
+    def on_signal(_signum, _frame):
         if not stop.is_set():
             # the orderly stop below takes well under a second; a process still there after
-            # exit_grace_s (a callback or the middleware's teardown blocked) exits anyway: a stopped
-            # graph, a killed launcher (parent-death SIGTERM), a test, never leave a node behind
-            watchdog = threading.Timer(exit_grace_s, os._exit, args=(128 + signum,))
-            watchdog.daemon = True
-            watchdog.start()
+            # exit_grace_s (a callback or the middleware's teardown blocked: an IMU node left behind a
+            # killed launcher spun for 27 min) is ended by the kernel (SIGALRM, default action: no
+            # Python, no GIL needed): a stopped graph, a killed launcher, a test never leave a node behind
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+            signal.alarm(max(1, math.ceil(exit_grace_s)))
         stop.set()
 
     for sig in (signal.SIGINT, signal.SIGTERM):
