@@ -291,8 +291,11 @@ class Graph:
         return [node for name, node in aiding_nodes.descriptors().items() if name in self.nodes]
 
     def _waits(self) -> dict:
-        """The time source waits for these subscriber counts on the user's topics."""
-        return {t: n for t, n in self.extra.items() if n > 0 and t != "/clock"}
+        """The time source waits for these subscriber counts on the user's topics: the user's own
+        subscribers on top of the graph's (the recorder's, the fusion node's, ...), as their publishers
+        do; the user's count alone was already met by the recorder, and the user's first messages were
+        lost (a guidance node in the fixture missed its first commands' states)."""
+        return {t: self._subscribers([t]) for t, n in self.extra.items() if n > 0 and t != "/clock"}
 
     def _sensor_nodes(self):
         return [n for n in self.nodes if n in sensors.descriptors()]
