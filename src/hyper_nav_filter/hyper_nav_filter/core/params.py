@@ -36,13 +36,30 @@ class ConfigError(ValueError):
 FLOAT, INT, BOOL, STR, FLOATS, STRS = "float", "int", "bool", "str", "float[]", "str[]"
 
 
+class _Required:
+    """The default of a field a file must give (:data:`REQUIRED`)."""
+
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+REQUIRED = _Required()      # default of a field without a default: a scenario file must give it
+
+
 @dataclass(frozen=True)
 class ParamSpec:
     """One parameter. ``type`` is one of FLOAT, INT, BOOL, STR, FLOATS (a
     fixed-length vector when ``length`` is set) or STRS. ``lo``/``hi`` bound
     every element (inclusive; ``lo_open``/``hi_open`` make them strict),
     ``choices`` restricts strings. ``updatable``: a time-stamped model update
-    (``core.model_update``) may change it while the filter runs."""
+    (``core.model_update``) may change it while the filter runs.
+    ``interval``: a range error states the interval ("within (-90, 90)")
+    instead of the bound crossed; ``quantity`` names what the value is in a
+    range error ("a standard deviation must be > 0"); ``rule``: a condition
+    on the whole checked value that no range says (a unit quaternion),
+    returning the error text or None. ``default`` :data:`REQUIRED`: a file
+    must give the field (``required``). ``broadcast=False``: a vector
+    must be given element by element (a list of ``length`` numbers)."""
     name: str
     type: str
     default: Any
@@ -57,18 +74,34 @@ class ParamSpec:
     extra: dict = field(default_factory=dict, compare=False)
     aliases: tuple = ()            # Alias: the same quantity in other units (scenario/setup files only)
     optional: bool = False         # NaN (every element) = not set
+    interval: bool = False
+    quantity: str = ""
+    broadcast: bool = True         # FLOATS of a length: one number stands for every element
+    rule: Any = field(default=None, compare=False)
+
+    @property
+    def required(self) -> bool:
+        return self.default is REQUIRED
 
     def check(self, value, where: str = ""):
         """The value coerced to this parameter's type (int -> float, list ->
         tuple); ConfigError naming the field otherwise."""
         name = f"{where}{self.name}"
+        value = self._check(value, name)
+        if self.rule is not None:
+            why = self.rule(value)
+            if why:
+                raise ConfigError(f"{name}: {why}")
+        return value
+
+    def _check(self, value, name: str):
         t = self.type
         if t == FLOAT:
             return self._number(value, name)
         if t == INT:
             if isinstance(value, bool) or not isinstance(value, int):
                 raise ConfigError(f"{name}: expected an integer, got {value!r}")
-            self._range(float(value), name)
+            self._range(value, name)
             return int(value)
         if t == BOOL:
             if not isinstance(value, bool):
@@ -81,13 +114,15 @@ class ParamSpec:
                 raise ConfigError(f"{name}: expected one of {list(self.choices)}, got {value!r}")
             return value
         if t == FLOATS:
-            if self.length is not None and _is_number(value):
+            if self.length is not None and self.broadcast and _is_number(value):
                 value = [value] * self.length           # one number for every axis
             if not isinstance(value, (list, tuple, np.ndarray)):
-                what = f"a number or a list of {self.length} numbers" if self.length else "a list of numbers"
+                what = (f"a number or a list of {self.length} numbers" if self.length and self.broadcast else
+                        f"a list of {self.length} numbers" if self.length else "a list of numbers")
                 raise ConfigError(f"{name}: expected {what}, got {value!r}")
             if self.length is not None and len(value) != self.length:
-                raise ConfigError(f"{name}: expected {self.length} numbers, got {list(value)!r}")
+                what = f"{self.length} numbers" if self.broadcast else f"a list of {self.length} numbers"
+                raise ConfigError(f"{name}: expected {what}, got {list(value)!r}")
             return tuple(self._number(v, name) for v in value)
         if t == STRS:
             if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
@@ -110,11 +145,20 @@ class ParamSpec:
         self._range(x, name)
         return x
 
-    def _range(self, x: float, name: str) -> None:
-        if self.lo is not None and (x < self.lo or (self.lo_open and x == self.lo)):
-            raise ConfigError(f"{name}: must be {'>' if self.lo_open else '>='} {self.lo:g}, got {x:g}")
-        if self.hi is not None and (x > self.hi or (self.hi_open and x == self.hi)):
-            raise ConfigError(f"{name}: must be {'<' if self.hi_open else '<='} {self.hi:g}, got {x:g}")
+    def _range(self, x, name: str) -> None:
+        low = self.lo is not None and (x < self.lo or (self.lo_open and x == self.lo))
+        high = self.hi is not None and (x > self.hi or (self.hi_open and x == self.hi))
+        if not (low or high):
+            return
+        if self.interval and self.lo is not None and self.hi is not None:
+            bound = (f"within {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}"
+                     f"{')' if self.hi_open else ']'}")
+        elif low:
+            bound = f"{'>' if self.lo_open else '>='} {self.lo:g}"
+        else:
+            bound = f"{'<' if self.hi_open else '<='} {self.hi:g}"
+        what = f"{self.quantity} must be" if self.quantity else "must be"
+        raise ConfigError(f"{name}: {what} {bound}, got {x!r}")
 
     def is_set(self, value) -> bool:
         """False for an optional parameter left at NaN (every element)."""

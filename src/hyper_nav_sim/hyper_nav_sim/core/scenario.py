@@ -2,7 +2,7 @@
 
 ``load_scenario(name_or_path)`` reads a file (a bare name is looked up in the
 installed ``share/hyper_nav_sim/scenarios`` or the source tree), checks every
-field against the schema below and raises ``ScenarioError`` naming the bad
+field against its declarations below (``SCENARIO_PARAMS``, one ``ParamSpec`` each) and raises ``ScenarioError`` naming the bad
 field (``imu.rate_hz: expected a number, got 'fifty'``).
 
 Validation rules (one place, applied to files and to ``--set`` overrides):
@@ -35,7 +35,9 @@ from hyper_nav_filter.core.config import ConfigError, FilterConfig
 from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
 from hyper_nav_filter import aiding_nodes
-from hyper_nav_filter.core.params import suggestion, unknown_field
+from hyper_nav_filter.core.params import (
+    BOOL, FLOAT, FLOATS, INT, REQUIRED, STR, ParamSpec, number, suggestion, unknown_field,
+)
 from .. import sensors
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
 
@@ -44,88 +46,105 @@ class ScenarioError(ValueError):
     """Malformed scenario; the message names the field."""
 
 
-NUM, INT, STR, BOOL = "number", "integer", "string", "boolean"
+def _unit_quaternion(q) -> str | None:
+    norm = sum(v * v for v in q) ** 0.5
+    if abs(norm - 1.0) > 1e-6:
+        return f"must be a unit quaternion (x, y, z, w), got {list(q)!r} (norm {norm:.6g})"
+    return None
 
 
-def vec(n):
-    return ("vector", n)
+def _f(name, default, description, **kw) -> ParamSpec:
+    return ParamSpec(name, FLOAT, default, description, **kw)
 
 
-# field -> (type, required, default)
-SCHEMA = {
-    "name": (STR, True, None),
-    "description": (STR, False, ""),
-    "seed": (INT, True, None),
-    "duration_s": (NUM, True, None),
-    "start.lat_deg": (NUM, True, None),
-    "start.lon_deg": (NUM, True, None),
-    "start.alt_m": (NUM, True, None),
-    "start.vel_enu_mps": (vec(3), True, None),
-    "start.angle_of_attack_deg": (NUM, False, 0.0),
-    "start.roll_deg": (NUM, False, 0.0),
-    "imu.rate_hz": (NUM, True, None),
-    "imu.gyro_bias_deg_per_hr": (vec(3), True, None),
-    "imu.gyro_arw_deg_per_sqrt_hr": (NUM, True, None),
-    "imu.accel_bias_ug": (vec(3), True, None),
-    "imu.accel_vrw_ug_per_sqrt_hz": (NUM, True, None),
+def _v(name, n, default, description, **kw) -> ParamSpec:
+    return ParamSpec(name, FLOATS, REQUIRED if default is REQUIRED else tuple(default), description, length=n,
+                     broadcast=False, **kw)
+
+
+def _pos(name, default, description) -> ParamSpec:
+    return _f(name, default, description, lo=0.0, lo_open=True)
+
+
+def _nonneg(name, default, description) -> ParamSpec:
+    return _f(name, default, description, lo=0.0)
+
+
+def _sigma(name, description) -> ParamSpec:
+    return _v(name, 3, REQUIRED, description, lo=0.0, lo_open=True, quantity="a standard deviation")
+
+
+# The scenario's own fields, declared once as every other parameter of the project is
+# (hyper_nav_filter.core.params.ParamSpec: type, default or REQUIRED, range, description). The sensor
+# and aiding nodes' blocks are declared by their descriptors, the model blocks by their parsers.
+SCENARIO_PARAMS = (
+    ParamSpec("name", STR, REQUIRED, "the scenario's name (bags, reports)"),
+    ParamSpec("description", STR, "", "one line for people"),
+    ParamSpec("seed", INT, REQUIRED, "seed of every random stream (per sensor: Scenario.rng)"),
+    _pos("duration_s", REQUIRED, "flight time simulated [s]"),
+    _f("start.lat_deg", REQUIRED, "geodetic latitude at t = 0 [deg]", lo=-90.0, hi=90.0, lo_open=True,
+       hi_open=True, interval=True),
+    _f("start.lon_deg", REQUIRED, "longitude at t = 0 [deg]", lo=-180.0, hi=180.0, interval=True),
+    _f("start.alt_m", REQUIRED, "ellipsoidal height at t = 0 [m]"),
+    _v("start.vel_enu_mps", 3, REQUIRED, "velocity at t = 0, ENU [m/s]"),
+    _f("start.angle_of_attack_deg", 0.0, "angle of attack of the kinematic flight [deg]"),
+    _f("start.roll_deg", 0.0, "roll at t = 0 [deg]"),
+    _pos("imu.rate_hz", REQUIRED, "IMU sample rate [Hz]"),
+    _v("imu.gyro_bias_deg_per_hr", 3, REQUIRED, "gyro bias per axis [deg/h]"),
+    _nonneg("imu.gyro_arw_deg_per_sqrt_hr", REQUIRED, "gyro angle random walk [deg/sqrt(h)]"),
+    _v("imu.accel_bias_ug", 3, REQUIRED, "accelerometer bias per axis [ug]"),
+    _nonneg("imu.accel_vrw_ug_per_sqrt_hz", REQUIRED, "accelerometer velocity random walk [ug/sqrt(Hz)]"),
     # the IMU's own axes in base_link (FLU) as a unit quaternion (x, y, z, w): the mounting that
     # import_data applied at the edge (it prints this); its frame on /tf_static only, the filter
     # works in the body frame
-    "imu.mounting_b_xyzw": (vec(4), False, [0.0, 0.0, 0.0, 1.0]),
-    "gnss.rate_hz": (NUM, True, None),
-    "gnss.pos_sigma_enu_m": (vec(3), True, None),
-    "gnss.vel_sigma_enu_mps": (vec(3), True, None),
-    "gnss.latency_s": (NUM, False, 0.0),
-    "gnss.antenna_lever_arm_b_m": (vec(3), False, [0.0, 0.0, 0.0]),
-    "magnetometer.rate_hz": (NUM, True, None),
-    "magnetometer.noise_nT": (NUM, True, None),
-    "magnetometer.epoch_decimal_year": (NUM, True, None),
-    "magnetometer.lever_arm_b_m": (vec(3), False, [0.0, 0.0, 0.0]),      # its frame on /tf_static only
-    "graph.real_time_factor": (NUM, False, 3.0),
-    "graph.clock_rate_hz": (NUM, False, 50.0),
+    _v("imu.mounting_b_xyzw", 4, (0.0, 0.0, 0.0, 1.0), "IMU axes in base_link, quaternion (x, y, z, w)",
+       rule=_unit_quaternion),
+    _pos("gnss.rate_hz", REQUIRED, "GNSS fix rate [Hz]"),
+    _sigma("gnss.pos_sigma_enu_m", "fix position noise, ENU [m]"),
+    _sigma("gnss.vel_sigma_enu_mps", "fix velocity noise, ENU [m/s]"),
+    _nonneg("gnss.latency_s", 0.0, "fix latency: stamp to release [s]"),
+    _v("gnss.antenna_lever_arm_b_m", 3, (0.0, 0.0, 0.0), "antenna in base_link [m]"),
+    _pos("magnetometer.rate_hz", REQUIRED, "magnetometer sample rate [Hz]"),
+    _nonneg("magnetometer.noise_nT", REQUIRED, "magnetometer white noise per axis [nT]"),
+    _f("magnetometer.epoch_decimal_year", REQUIRED, "date of the flight for the World Magnetic Model [year]"),
+    _v("magnetometer.lever_arm_b_m", 3, (0.0, 0.0, 0.0), "magnetometer in base_link [m] (/tf_static only)"),
+    _pos("graph.real_time_factor", 3.0, "flight seconds per wall second"),
+    _pos("graph.clock_rate_hz", 50.0, "/clock messages per flight second"),
     # at most this many /clock messages per wall second: at high real-time factors the
     # sim-time step grows to real_time_factor / clock_max_wall_hz (every node takes
     # each /clock in Python; 1000 per second into 7 nodes is a core of 2)
-    "graph.clock_max_wall_hz": (NUM, False, 100.0),
+    _pos("graph.clock_max_wall_hz", 100.0, "at most this many /clock messages per wall second"),
     # the clock waits for the nodes' allowances (hyper_nav_filter.clock_gate): a loaded machine slows the
     # flight down instead of losing or delaying data; false = paced by the wall clock alone
-    "graph.clock_gate": (BOOL, False, True),
-    "graph.truth_rate_hz": (NUM, False, 50.0),
-    "graph.qos_depth": (INT, False, 2000),
+    ParamSpec("graph.clock_gate", BOOL, True, "the clock waits for the nodes' allowances"),
+    _pos("graph.truth_rate_hz", 50.0, "truth messages per flight second"),
+    ParamSpec("graph.qos_depth", INT, 2000, "history depth of every topic", lo=0, lo_open=True),
     # wall-clock period of every node's /diagnostics status (its heartbeat)
-    "graph.diagnostics_period_s": (NUM, False, 1.0),
+    _pos("graph.diagnostics_period_s", 1.0, "wall period of every node's /diagnostics status [s]"),
     # liveness monitor (nodes/monitor.py): a node silent for heartbeat_timeout_s
     # (wall) is reported dead, one never heard of within startup_timeout_s (wall)
     # as not started; a stream that does not advance for stream_timeout_s of sim
     # time (at least 3 periods of its nominal rate) is reported missing
-    "monitor.heartbeat_timeout_s": (NUM, False, 5.0),
-    "monitor.startup_timeout_s": (NUM, False, 60.0),
-    "monitor.stream_timeout_s": (NUM, False, 3.0),
-    "filter.initial_error.pos_enu_m": (vec(3), True, None),
-    "filter.initial_error.vel_enu_mps": (vec(3), True, None),
-    "filter.initial_error.att_enu_arcmin": (vec(3), True, None),
-    "report.skip_s": (NUM, False, 30.0),
-    "report.max_pos_rms_m": (NUM, False, None),
-    "report.max_vel_rms_mps": (NUM, False, None),
-    "report.max_att_rms_deg": (NUM, False, None),
-    "report.reference_source": (STR, False, ""),
-    "report.reference_pos_m": (NUM, False, None),
-    "report.reference_vel_mps": (NUM, False, None),
-    "report.reference_att_deg": (NUM, False, None),
-}
+    _pos("monitor.heartbeat_timeout_s", 5.0, "a node silent this long (wall) is reported dead [s]"),
+    _pos("monitor.startup_timeout_s", 60.0, "a node not heard of this long (wall) is reported not started [s]"),
+    _pos("monitor.stream_timeout_s", 3.0, "a stream that does not advance this long (flight) is missing [s]"),
+    _v("filter.initial_error.pos_enu_m", 3, REQUIRED, "error of the filter's initial position, ENU [m]"),
+    _v("filter.initial_error.vel_enu_mps", 3, REQUIRED, "error of the filter's initial velocity, ENU [m/s]"),
+    _v("filter.initial_error.att_enu_arcmin", 3, REQUIRED, "error of the filter's initial attitude [arcmin]"),
+    _nonneg("report.skip_s", 30.0, "flight time left out of the report's RMS [s]"),
+    _pos("report.max_pos_rms_m", None, "verdict limit on the position RMS [m] (none: no limit)"),
+    _pos("report.max_vel_rms_mps", None, "verdict limit on the velocity RMS [m/s] (none: no limit)"),
+    _pos("report.max_att_rms_deg", None, "verdict limit on the attitude RMS [deg] (none: no limit)"),
+    ParamSpec("report.reference_source", STR, "", "where the reference figures come from"),
+    _f("report.reference_pos_m", None, "reference position RMS [m] (printed beside ours)"),
+    _f("report.reference_vel_mps", None, "reference velocity RMS [m/s]"),
+    _f("report.reference_att_deg", None, "reference attitude RMS [deg]"),
+)
 KINEMATIC_ONLY = ("start.", )          # fields not required when a `flight:` block is given
 # (and the sensor and aiding nodes' blocks: hyper_nav_sim.sensors, hyper_nav_filter.aiding_nodes,
 # read from the installed descriptors)
 OPTIONAL_BLOCKS = ("flight", "trajectory_file", "lever_arm", "maneuvers", "tracker", "tracker_augmented",
                    "world", "guidance")
-POSITIVE = {"duration_s", "imu.rate_hz", "gnss.rate_hz", "magnetometer.rate_hz",
-            "graph.real_time_factor", "graph.clock_rate_hz", "graph.clock_max_wall_hz", "graph.truth_rate_hz",
-            "graph.qos_depth",
-            "graph.diagnostics_period_s", "monitor.heartbeat_timeout_s", "monitor.startup_timeout_s",
-            "monitor.stream_timeout_s", "report.max_pos_rms_m", "report.max_vel_rms_mps", "report.max_att_rms_deg"}
-NON_NEGATIVE = {"gnss.latency_s", "report.skip_s", "magnetometer.noise_nT", "imu.gyro_arw_deg_per_sqrt_hr",
-                "imu.accel_vrw_ug_per_sqrt_hz"}
-RANGES = {"start.lat_deg": (-90.0, 90.0, "within (-90, 90)"), "start.lon_deg": (-180.0, 180.0, "within [-180, 180]")}
 MANEUVER_KEYS = ("type", "t_start_s", "duration_s", "delta")
 # blocks whose nested content their own parser checks key by key (boost_glide_config,
 # hyper_nav_filter.sources) or whose keys are data (gnss.raw.lock.sat_outages: satellite ids);
@@ -142,13 +161,13 @@ def opaque_blocks() -> set[str]:
 
 def known_fields() -> dict[str, frozenset]:
     """Allowed keys of every block, by dotted block path ('' = top level):
-    the SCHEMA above plus the fields each model block's parser takes."""
+    the SCENARIO_PARAMS above plus the fields each model block's parser takes."""
     from .gnss import receiver
     from .lever_arm import _DEFAULTS as LEVER_ARM_FIELDS
     from hyper_nav_filter.core.initial_state import INIT_PARAMS
     tree: dict[str, set] = {}
-    for dotted in SCHEMA:
-        parts = dotted.split(".")
+    for spec in SCENARIO_PARAMS:
+        parts = spec.name.split(".")
         for i in range(len(parts)):
             tree.setdefault(".".join(parts[:i]), set()).add(parts[i])
     tree[""] |= set(OPTIONAL_BLOCKS) | set(aiding_nodes.by_block()) | set(sensors.blocks())
@@ -241,22 +260,6 @@ def _set(d: dict, dotted: str, value):
     for part in parts[:-1]:
         d = d.setdefault(part, {})
     d[parts[-1]] = value
-
-
-def _check_type(field: str, typ, value):
-    def is_num(x):
-        return isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
-    if typ == NUM and not is_num(value):
-        raise ScenarioError(f"{field}: expected a number, got {value!r}")
-    if typ == INT and not (isinstance(value, int) and not isinstance(value, bool)):
-        raise ScenarioError(f"{field}: expected an integer, got {value!r}")
-    if typ == STR and not isinstance(value, str):
-        raise ScenarioError(f"{field}: expected a string, got {value!r}")
-    if typ == BOOL and not isinstance(value, bool):
-        raise ScenarioError(f"{field}: expected true or false, got {value!r}")
-    if isinstance(typ, tuple):
-        if not (isinstance(value, list) and len(value) == typ[1] and all(is_num(x) for x in value)):
-            raise ScenarioError(f"{field}: expected a list of {typ[1]} numbers, got {value!r}")
 
 
 @dataclass
@@ -381,34 +384,6 @@ class Scenario:
         return np.random.default_rng([self["seed"], sum(stream.encode())])
 
 
-def _coerce(typ, value):
-    """An integer where a number is expected becomes a float (ROS parameters
-    declared as double refuse an integer); lists of numbers likewise."""
-    if typ == NUM:
-        return float(value)
-    if isinstance(typ, tuple):
-        return [float(x) for x in value]
-    return value
-
-
-def _check_range(field: str, value) -> None:
-    vals = value if isinstance(value, list) else [value]
-    if field in POSITIVE and any(v <= 0 for v in vals):
-        raise ScenarioError(f"{field}: must be > 0, got {value!r}")
-    if (field in NON_NEGATIVE) and any(v < 0 for v in vals):
-        raise ScenarioError(f"{field}: must be >= 0, got {value!r}")
-    if "sigma" in field.rsplit(".", 1)[-1] and any(v <= 0 for v in vals):
-        raise ScenarioError(f"{field}: a standard deviation must be > 0, got {value!r}")
-    if field == "imu.mounting_b_xyzw" and abs(sum(v * v for v in vals) ** 0.5 - 1.0) > 1e-6:
-        raise ScenarioError(f"{field}: must be a unit quaternion (x, y, z, w), got {value!r} "
-                            f"(norm {sum(v * v for v in vals) ** 0.5:.6g})")
-    if field in RANGES:
-        lo, hi, text = RANGES[field]
-        inside = lo < value < hi if field == "start.lat_deg" else lo <= value <= hi
-        if not inside:
-            raise ScenarioError(f"{field}: must be {text}, got {value!r}")
-
-
 def _check_filter_config(cfg: dict) -> dict:
     """``filter.config`` checked and coerced by the filter's own parameter
     declarations (``hyper_nav_filter.core.params``: types, ranges, every
@@ -441,23 +416,21 @@ def validate(data, source: str = "<dict>") -> dict:
     if dynamic and "start" in data:
         raise ScenarioError(f"{source}: start: not used with a 'flight:' block (the flight starts at "
                             f"flight.start); remove it ('start: null' in a file that extends a kinematic scenario)")
-    for field, (typ, required, default) in SCHEMA.items():
-        if dynamic and field.startswith(KINEMATIC_ONLY):
+    for spec in SCENARIO_PARAMS:
+        if dynamic and spec.name.startswith(KINEMATIC_ONLY):
             continue
         try:
-            value = _get(data, field)
+            value = _get(data, spec.name)
         except KeyError:
-            if required:
-                raise ScenarioError(f"{source}: missing required field '{field}'") from None
-            _set(data, field, default)
+            if spec.required:
+                raise ScenarioError(f"{source}: missing required field '{spec.name}'") from None
+            _set(data, spec.name, list(spec.default) if isinstance(spec.default, tuple) else spec.default)
             continue
         try:
-            _check_type(field, typ, value)
-            value = _coerce(typ, value)
-            _check_range(field, value)
-        except ScenarioError as exc:
+            value = spec.check(value)
+        except ConfigError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
-        _set(data, field, value)
+        _set(data, spec.name, list(value) if isinstance(value, tuple) else value)   # lists: the file can be written back
     try:
         from hyper_nav_filter.core.wmm import WmmDateError, release_for
         release_for(data["magnetometer"]["epoch_decimal_year"])
@@ -472,13 +445,8 @@ def validate(data, source: str = "<dict>") -> dict:
         for key in ("t_start_s", "duration_s", "delta"):
             if key not in m:
                 raise ScenarioError(f"{source}: missing required field '{where}.{key}'")
-            try:
-                _check_type(f"{where}.{key}", NUM, m[key])
-            except ScenarioError as exc:
-                raise ScenarioError(f"{source}: {exc}") from None
-            m[key] = float(m[key])
-        if m["duration_s"] <= 0:
-            raise ScenarioError(f"{source}: {where}.duration_s: must be > 0")
+            m[key] = number(f"{source}: {where}.{key}", m[key], lo=0.0 if key == "duration_s" else None,
+                            lo_open=True, error=ScenarioError)
     try:
         if "config" in data["filter"]:
             if not isinstance(data["filter"]["config"], dict):

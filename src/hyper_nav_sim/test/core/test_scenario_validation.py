@@ -166,3 +166,14 @@ def test_a_load_sensor_rate_that_is_not_a_multiple_of_the_imu_rate_is_refused_at
         apply_overrides(sc, {"imu.rate_hz": 500.0}, tmp_path)
     assert apply_overrides(sc, {"imu.rate_hz": 200.0}, tmp_path)["imu.rate_hz"] == 200.0
     assert apply_overrides(sc, {"imu.rate_hz": 500.0, "lever_arm.enabled": False}, tmp_path)["imu.rate_hz"] == 500.0
+
+
+def test_every_scenario_field_is_declared_once_with_a_description():
+    """The scenario's own fields are ParamSpecs (the one validation idiom, issue 34)."""
+    from hyper_nav_sim.core.scenario import SCENARIO_PARAMS
+    names = [s.name for s in SCENARIO_PARAMS]
+    assert len(names) == len(set(names))
+    assert all(s.description for s in SCENARIO_PARAMS)
+    by = {s.name: s for s in SCENARIO_PARAMS}
+    assert by["seed"].required and not by["graph.real_time_factor"].required
+    assert by["gnss.pos_sigma_enu_m"].quantity == "a standard deviation"
