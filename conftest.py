@@ -7,10 +7,12 @@
   bare ``pytest`` takes one derived from its pid; a pytest-xdist worker takes
   its master's domain + 1 + its index.
 * Tests that start node processes over DDS (marker ``graph``) go to one
-  xdist worker per test file (``--dist loadgroup``): a file's module-scoped
-  graph (a recorded run, a scratch checkout) is started once, and graphs of
-  two files may fly at once, each in its worker's own domain. ``make test``
-  runs them in their own lane, one at a time (tools/run_tests.sh says why).
+  xdist worker per test file (``--dist loadfile`` in tools/run_tests.sh): a
+  file's module-scoped graph (a recorded run, a scratch checkout) is started
+  once, and graphs of two files may fly at once, each in its worker's own
+  domain. ``make test`` runs them in their own lane (tools/run_tests.sh says
+  why). (``--dist loadgroup`` with ``xdist_group`` markers would say the same,
+  but pytest-xdist 3.8 cannot mark pytest 9.2's items: the markers are ignored.)
 """
 import os
 
@@ -22,12 +24,6 @@ if _worker[2:].isdigit():
 elif not os.environ.get("ROS_DOMAIN_ID"):
     os.environ["ROS_DOMAIN_ID"] = str(10 + (os.getpid() % 50) * 4)
 os.environ.setdefault("HYPER_NAV_TEST_DOMAIN", os.environ["ROS_DOMAIN_ID"])
-
-
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        if item.get_closest_marker("graph"):
-            item.add_marker(pytest.mark.xdist_group(f"graph:{item.path.name}"))
 
 
 # --- CPU per test -------------------------------------------------------------

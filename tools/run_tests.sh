@@ -4,7 +4,8 @@
 #   * the node-graph tests (marker `graph`: real node processes over DDS,
 #     paced by the simulated clock, which waits for the nodes it must not
 #     outrun: hyper_nav_filter.clock_gate) on GRAPH_WORKERS pytest-xdist
-#     workers (default 2; one test file per worker), at normal priority. A
+#     workers (default 2; one test file per worker: --dist loadfile, so a file's
+#     module-scoped graph is flown once), at normal priority. A
 #     graph run is mostly waiting (discovery, pacing, drains: about 0.6 of a
 #     core), so two at once nearly halve the lane (measured on a fresh clone:
 #     one worker 996-1145 s, two 479 s; 9.0 CPU-min either way);
@@ -15,6 +16,9 @@
 # from this shell's pid), so nothing crosses between lanes or with another
 # suite running on the machine. Each lane ends with its slowest tests (wall)
 # and its top CPU consumers (conftest.py: CPU does not depend on the load).
+# Not --dist loadgroup: with pytest 9.2 and pytest-xdist 3.8 its xdist_group markers
+# are silently ignored (xdist renames Node._nodeid, which pytest 9 no longer reads), and
+# every graph file's module fixture was flown once on each worker that took one of its tests.
 # Extra arguments go to both pytest runs (e.g. -k). Exit status: non-zero if either lane fails; the unit
 # lane's output follows the graph lane's.
 set -u
@@ -23,13 +27,13 @@ cd "$(dirname "$0")/.."
 source tools/env.sh >/dev/null
 base=$(( 10 + ($$ % 35) * 6 ))
 unit_log="$(mktemp -d)/unit_tests.log"
-ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 python -m pytest -c pytest.ini -n 2 --dist loadgroup -m "not graph" --cpu-top 25 --durations 15 "$@" \
+ROS_DOMAIN_ID=$((base + 3)) HYPER_NAV_TEST_DOMAIN=$((base + 3)) nice -n 19 python -m pytest -c pytest.ini -n 2 --dist load -m "not graph" --cpu-top 25 --durations 15 "$@" \
     > "$unit_log" 2>&1 &
 unit_pid=$!
 trap 'kill -- -$unit_pid 2>/dev/null; kill $unit_pid 2>/dev/null' INT TERM
 graph_workers=${GRAPH_WORKERS:-2}
 graph_xdist=()
-[ "$graph_workers" -gt 1 ] && graph_xdist=(-n "$graph_workers" --dist loadgroup)
+[ "$graph_workers" -gt 1 ] && graph_xdist=(-n "$graph_workers" --dist loadfile)
 echo "[make test] node-graph tests on $graph_workers worker(s); unit tests beside them (nice 19, 2 workers; output below when done)"
 ROS_DOMAIN_ID=$base HYPER_NAV_TEST_DOMAIN=$base python -m pytest -c pytest.ini -m graph "${graph_xdist[@]}" --cpu-top 25 --durations 15 "$@"
 g=$?
