@@ -8,8 +8,11 @@ rho already contains the receiver clock), tau = geometric light time (Sagnac).
 The fix refers to true time t_tag - b_ref/c.
 Velocity/drift (linear): unknowns [vx, vy, vz (m/s), d (m/s)],
     rho_dot + c dt_sat_dot = u.(R3 v_sat - v)/g + d,  g as in :mod:`observables`.
-Weights 1/sigma^2; covariance (H^T W H)^-1 (scaled by nothing: a-priori
-sigmas); DOPs from the unweighted geometry, position part rotated to ENU.
+Weights 1/sigma^2; the normal-equation steps, covariance (H^T W H)^-1 (scaled
+by nothing: a-priori sigmas) and clock columns are :mod:`.least_squares`
+(shared with :mod:`.spp`); DOPs (:mod:`.dop`) from the unweighted geometry,
+position part rotated to ENU. A singular geometry raises
+``numpy.linalg.LinAlgError``.
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from hyper_nav_gnss import earth
 from hyper_nav_gnss.orbits.ephemeris import C_MPS, constants, satellite_position_ecef, system_time_s
 from hyper_nav_gnss.geometry import rot3
 from hyper_nav_gnss.positioning.dop import dops
+from hyper_nav_gnss.positioning.least_squares import clock_columns, covariance, solve_linear, solve_step
 
 
 @dataclass
@@ -75,9 +79,8 @@ def solve_pvt(ephs, t_tag_s, pseudorange_m, pr_sigma_m=None, pseudorange_rate_mp
     ncol = 4 + len(systems) - 1
     if n < ncol:
         raise ValueError(f"{n} pseudoranges for {ncol} unknowns")
-    isb_cols = np.zeros((n, len(systems) - 1))
-    for j, s in enumerate(systems[1:]):
-        isb_cols[:, j] = [e.system == s for e in ephs]
+    clk_cols = clock_columns([e.system for e in ephs], systems)
+    isb_cols = clk_cols[:, 1:]
     x = np.zeros(ncol)
     x[:3] = r0_e_m if r0_e_m is not None else 0.0
     it = 0
@@ -88,9 +91,11 @@ def solve_pvt(ephs, t_tag_s, pseudorange_m, pr_sigma_m=None, pseudorange_rate_mp
         u = d / rho[:, None]
         pred = rho + x[3] + isb_cols @ x[4:]
         y = pr + C_MPS * (dts - tgd) - corr
-        H = np.hstack([-u, np.ones((n, 1)), isb_cols])
-        HW = H.T * w
-        dx = np.linalg.solve(HW @ H, HW @ (y - pred))
+        H = np.hstack([-u, clk_cols])
+        step = solve_step(H, y - pred, w)
+        if step is None:
+            raise np.linalg.LinAlgError(f"singular PVT geometry ({n} satellites, {ncol} unknowns)")
+        dx = step[0]
         x = x + dx
         if np.linalg.norm(dx[:3]) < tol_m and it > 1:
             break
@@ -98,9 +103,11 @@ def solve_pvt(ephs, t_tag_s, pseudorange_m, pr_sigma_m=None, pseudorange_rate_mp
     d = rr - x[:3]
     rho = np.linalg.norm(d, axis=1)
     u = d / rho[:, None]
-    H = np.hstack([-u, np.ones((n, 1)), isb_cols])
+    H = np.hstack([-u, clk_cols])
     res = pr + C_MPS * (dts - tgd) - corr - (rho + x[3] + isb_cols @ x[4:])
-    cov = np.linalg.inv((H.T * w) @ H)
+    cov = covariance(H, w)
+    if cov is None:
+        raise np.linalg.LinAlgError(f"singular PVT geometry ({n} satellites, {ncol} unknowns)")
     # DOPs (unweighted, single clock column)
     G = np.hstack([-u, np.ones((n, 1))])
     lat, lon, _ = earth.ecef_to_geodetic(x[:3])
@@ -112,10 +119,10 @@ def solve_pvt(ephs, t_tag_s, pseudorange_m, pr_sigma_m=None, pseudorange_rate_mp
         g = 1.0 - np.einsum("ki,ki->k", u, dR_r - vr) / C_MPS
         Hv = np.hstack([-u / g[:, None], np.ones((n, 1))])
         yv = prr + C_MPS * dtd - np.einsum("ki,ki->k", u, vr) / g
-        HvW = Hv.T * wv
-        cov_v = np.linalg.inv(HvW @ Hv)
-        xv = cov_v @ (HvW @ yv)
+        lin = solve_linear(Hv, yv, wv)
+        if lin is None:
+            raise np.linalg.LinAlgError(f"singular PVT velocity geometry ({n} satellites)")
+        xv, cov_v, res_v = lin
         v, drift = xv[:3], float(xv[3])
-        res_v = yv - Hv @ xv
     return PvtSolution(x[:3], float(x[3]), {s: float(x[4 + j]) for j, s in enumerate(systems[1:])}, cov,
                        v, drift, cov_v, dop, res, res_v, it, ref)

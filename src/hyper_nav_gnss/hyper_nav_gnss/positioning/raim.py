@@ -21,6 +21,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from hyper_nav_gnss.positioning.least_squares import normal_matrix
+
 
 # scipy.special.chdtri(dof, 1e-3) for dof = 1..200 (the default P_fa), the same doubles (tested): importing
 # scipy.special took 0.14 s of the spp command's 1.4 s
@@ -88,9 +90,7 @@ def standardized_residuals(H, v, var) -> np.ndarray:
     redundancy of a measurement is nil)."""
     H = np.asarray(H, float)
     var = np.asarray(var, float)
-    W = 1.0 / var
-    N = H.T @ (H * W[:, None])
-    Ninv = np.linalg.pinv(N)
+    Ninv = np.linalg.pinv(normal_matrix(H, 1.0 / var))     # N = H^T W H (:mod:`.least_squares`); pseudo-inverse
     qv = var - np.einsum("ij,jk,ik->i", H, Ninv, H)
     qv = np.where(qv > 1e-12 * var, qv, np.inf)
     return np.asarray(v, float) / np.sqrt(qv)

@@ -30,6 +30,7 @@ import numpy as np
 
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.positioning.dop import dops
+from hyper_nav_gnss.positioning import least_squares as lsq
 from hyper_nav_gnss.positioning.raim import global_statistic, standardized_residuals, threshold
 from hyper_nav_gnss.corrections.receiver_model import (
     ReceiverModel, _static, corrected_at, satellite_observations, states_from_pseudoranges,
@@ -121,22 +122,15 @@ def _least_squares(obs, states, x0, systems_all, cfg: SppConfig, use_mask: bool)
         d = r - rs
         rho = np.linalg.norm(d, axis=1)
         u = d / rho[:, None]
-        H = np.zeros((len(idx), m))
-        H[:, :3] = u
-        for j, s in enumerate(systems):
-            H[:, 3 + j] = sys_of == s
-        if len(systems) > 1:
-            H[:, 3] = 1.0                          # reference clock on every row, ISB on its system's rows
+        H = np.hstack([u, lsq.clock_columns(sys_of, systems)])   # reference clock on every row, ISB columns
         if x is None or len(x) != m:
             x = np.concatenate([r, [b], np.zeros(m - 4)])
         pred = rho + H[:, 3:] @ x[3:]
         v = cor.pr_m[idx] - pred
-        w = 1.0 / cor.var_m2[idx]
-        N = H.T @ (H * w[:, None])
-        try:
-            dx = np.linalg.solve(N, H.T @ (w * v))
-        except np.linalg.LinAlgError:
+        step = lsq.solve_step(H, v, 1.0 / cor.var_m2[idx])
+        if step is None:
             return None
+        dx = step[0]
         x = x + dx
         r, b = x[:3], x[3]
         step = float(np.linalg.norm(dx[:3]))
@@ -258,9 +252,10 @@ def solve_epoch(raw, store, cfg: SppConfig, x0=None, counters: Counter | None = 
     used[idx] = True
     r = x[:3]
     lat, lon, _ = earth.ecef_to_geodetic(r)
-    W = 1.0 / var
-    N = H.T @ (H * W[:, None])
-    cov = np.linalg.inv(N)
+    cov = lsq.covariance(H, 1.0 / var)
+    if cov is None:                            # not seen: the last Gauss-Newton step solved the same geometry
+        counters["epochs_too_few_satellites"] += 1
+        return sol
     # residuals and geometry of every satellite at the final solution (excluded and masked ones too)
     # (without an exclusion the last Gauss-Newton evaluation is already this one: same satellites, x)
     full = cor if not excluded else corrected_at(obs, r, x[3], cfg.model, states)
@@ -551,8 +546,8 @@ def _batch_solve(block, obs_list, states, cfg: SppConfig, start) -> list:
     T_all = np.sum(np.where(ok, v_all * v_all * W, 0.0), axis=1)
     dof_all = ok.sum(axis=1) - m
     try:
-        cov = np.linalg.inv(np.einsum("esi,es,esj->eij", H, W, H) + eye)
-        Q = np.linalg.inv(np.einsum("esi,esj->eij", H, H) + eye)
+        cov = np.linalg.inv(lsq.normal_matrix(H, W) + eye)
+        Q = np.linalg.inv(lsq.normal_matrix(H, np.ones_like(W)) + eye)        # the DOPs' geometry (:mod:`.dop`)
     except np.linalg.LinAlgError:
         return None
     lat, lon, _ = earth.ecef_to_geodetic(r)
@@ -600,7 +595,16 @@ def _batch_gauss_newton(blk: _Block, cfg: SppConfig, x0, active):
     antenna) for every active epoch at once. Returns (x, m, ok, H, iterations,
     pr, var, el, az, rotated satellites, system slots, systems present, good)
     at the end, good False where an epoch had too few satellites or a
-    singular system; or None when no epoch is active."""
+    singular system; or None when no epoch is active.
+
+    The clock columns and the normal equations are :mod:`.least_squares`'s,
+    broadcast over the epochs (padded rows have weight 0). The step itself is
+    solved here, not by :func:`.least_squares.solve_step`: an epoch with
+    fewer systems than the block's widest has unused clock columns, which get
+    a unit diagonal in N (dx 0 there) before one stacked ``solve``; and one
+    singular epoch fails the whole stacked solve (None: the block goes to
+    :func:`solve_epoch`), where the per-epoch solve would flag that epoch
+    only."""
     model = cfg.model
     E, S = blk.E, blk.S
     active = active & (np.linalg.norm(x0[:, :3], axis=1) > 6.0e6)
@@ -638,22 +642,15 @@ def _batch_gauss_newton(blk: _Block, cfg: SppConfig, x0, active):
         m_prev[run] = m[run]
         d = x[:, None, :3] - rr
         rho = np.sqrt(np.sum(d * d, axis=2))
-        Hn = np.zeros((E, S, 3 + NS))
-        Hn[..., :3] = d / rho[..., None]
         sl_of = np.where(blk.sys >= 0, slot[rows[:, None], np.maximum(blk.sys, 0)], -1)
-        for j in range(NS):
-            Hn[..., 3 + j] = (sl_of == j) & sysp[rows[:, None], np.maximum(blk.sys, 0)]
-        multi = sysp.sum(axis=1) > 1
-        Hn[multi, :, 3] = 1.0
-        Hn *= ok[..., None]
+        Hn = np.concatenate([d / rho[..., None], lsq.clock_columns_from_slots(sl_of, NS)], axis=2) * ok[..., None]
         H[run] = Hn[run]
         pred = rho + np.einsum("esj,ej->es", H[..., 3:], x[:, 3:])
         v = np.where(ok, pr - pred, 0.0)
         w = np.where(ok, 1.0 / var, 0.0)
-        N = np.einsum("esi,es,esj->eij", H, w, H)
+        N, rhs = lsq.normal_equations(H, v, w)
         unused = np.arange(3 + NS)[None, :] >= m[:, None]
         N[:, np.arange(3 + NS), np.arange(3 + NS)] += unused
-        rhs = np.einsum("esi,es->ei", H, w * v)
         try:
             dx = np.linalg.solve(N[run], rhs[run][..., None])[..., 0]
         except np.linalg.LinAlgError:
@@ -694,7 +691,8 @@ def solve_velocity(raw, store, cfg: SppConfig, sol: SppSolution, max_w: float = 
     elevation mask or without a Doppler are left out; the largest
     standardized residual above ``max_w`` is removed while 5 remain. The
     covariance is scaled by the unit-weight variance when that exceeds 1.
-    None when fewer than 5 satellites remain."""
+    None when fewer than 5 satellites remain or their geometry is singular
+    (the solve: :func:`.least_squares.solve_linear`)."""
     if not sol.valid:
         return None
     obs = satellite_observations(raw, store, cfg.model, Counter(), exclude=cfg.exclude)
@@ -715,10 +713,10 @@ def solve_velocity(raw, store, cfg: SppConfig, sol: SppSolution, max_w: float = 
     while len(idx) >= 5:
         H = np.hstack([-u[idx], np.ones((len(idx), 1))])
         W = 1.0 / var[idx]
-        N = H.T @ (H * W[:, None])
-        x = np.linalg.solve(N, H.T @ (W * y[idx]))
-        v = y[idx] - H @ x
-        Q = np.linalg.inv(N)
+        lin = lsq.solve_linear(H, y[idx], W)
+        if lin is None:
+            return None
+        x, Q, v = lin
         s_v = np.sqrt(np.maximum(var[idx] - np.einsum("ki,ij,kj->k", H, Q, H), 1e-12))
         w = np.abs(v) / s_v
         j = int(np.argmax(w))
