@@ -241,7 +241,7 @@ def nonneg(name, type_, default, description, **kw) -> ParamSpec:
 
 
 def number(name: str, value, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
-           hi_open: bool = False, error: type[Exception] = ConfigError) -> float:
+           hi_open: bool = False, interval: bool = False, error: type[Exception] = ConfigError) -> float:
     """One number of a block its own parser reads key by key (the flight,
     the GNSS receiver, the world, the elastic lever arm, the virtual
     receiver), checked by the same rule as a declared parameter
@@ -249,7 +249,8 @@ def number(name: str, value, lo: float | None = None, hi: float | None = None, *
     inclusive unless open); the error names the field and is raised as
     ``error`` (the caller's own error type)."""
     try:
-        return ParamSpec(name, FLOAT, None, "", lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open).check(value)
+        return ParamSpec(name, FLOAT, None, "", lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open,
+                         interval=interval).check(value)
     except ConfigError as exc:
         if error is ConfigError:
             raise

@@ -59,3 +59,5 @@ def test_required_and_the_number_rule_of_parsers():
     assert repr(REQUIRED) == "REQUIRED"
     with pytest.raises(ValueError, match=r"^flight.x: expected a finite number, got inf$"):
         number("flight.x", float("inf"), error=ValueError)
+    with pytest.raises(ValueError, match=r"^tracker.imm_p_stay: must be within \(0, 1\), got 1.0$"):
+        number("tracker.imm_p_stay", 1, 0.0, 1.0, lo_open=True, hi_open=True, interval=True, error=ValueError)

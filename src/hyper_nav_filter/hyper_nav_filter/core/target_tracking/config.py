@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from hyper_nav_filter.core.params import FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, number, unknown_field
 from hyper_nav_filter.core.target_tracking import glide_model as gm
 
 FILTER_TYPES = ("EKF", "AEKF", "LEKF", "IMM")
@@ -107,7 +108,7 @@ class TrackerConfig:
         names = {f.name: f for f in fields(cls)}
         for key, value in d.items():
             if key not in names:
-                raise TrackerConfigError(f"{prefix}{key}: unknown field")
+                raise TrackerConfigError(unknown_field(prefix, key, names))
             if key == "model":
                 kw["model"] = _model_from_dict(value, f"{prefix}model.")
                 continue
@@ -125,12 +126,10 @@ class TrackerConfig:
                     "init_sigma_h_m", "init_sigma_lonlat_rad", "init_sigma_v_mps", "init_sigma_gamma_deg",
                     "init_sigma_psi_deg", "init_sigma_chi"]
         for name in positive:
-            if not getattr(self, name) > 0:
-                raise TrackerConfigError(f"{prefix}{name}: must be > 0, got {getattr(self, name)!r}")
-        if not 0.0 < self.aekf_forgetting < 1.0:
-            raise TrackerConfigError(f"{prefix}aekf_forgetting: must be within (0, 1), got {self.aekf_forgetting!r}")
-        if not 0.0 < self.imm_p_stay < 1.0:
-            raise TrackerConfigError(f"{prefix}imm_p_stay: must be within (0, 1), got {self.imm_p_stay!r}")
+            number(f"{prefix}{name}", getattr(self, name), 0.0, lo_open=True, error=TrackerConfigError)
+        for name in ("aekf_forgetting", "imm_p_stay"):
+            number(f"{prefix}{name}", getattr(self, name), 0.0, 1.0, lo_open=True, hi_open=True, interval=True,
+                   error=TrackerConfigError)
         if len(self.imm_lateral_c_l) != len(self.imm_q_scale) or len(self.imm_lateral_c_l) < 2:
             raise TrackerConfigError(f"{prefix}imm_q_scale: needs one entry per imm_lateral_c_l mode (>= 2 modes)")
         if any(c < 0 for c in self.imm_lateral_c_l) or any(q <= 0 for q in self.imm_q_scale):
@@ -172,31 +171,17 @@ def _model_from_dict(d, prefix: str) -> gm.GlideModel:
     kw = {}
     for key, value in d.items():
         if key not in names:
-            raise TrackerConfigError(f"{prefix}{key}: unknown field")
-        kw[key] = _check(f"{prefix}{key}", getattr(gm.GlideModel, key), value)
-        if not kw[key] > 0:
-            raise TrackerConfigError(f"{prefix}{key}: must be > 0, got {value!r}")
+            raise TrackerConfigError(unknown_field(prefix, key, names))
+        kw[key] = _check(f"{prefix}{key}", getattr(gm.GlideModel, key), value, lo=0, lo_open=True)
     return gm.GlideModel(**kw)
 
 
-def _is_num(x) -> bool:
-    return isinstance(x, (int, float, np.floating, np.integer)) and not isinstance(x, bool) and np.isfinite(x)
-
-
-def _check(name: str, default, value):
-    """Type-check ``value`` against the type of the field's default."""
-    if isinstance(default, str):
-        if not isinstance(value, str):
-            raise TrackerConfigError(f"{name}: expected a string, got {value!r}")
-        return value
-    if isinstance(default, tuple):
-        if not (isinstance(value, (list, tuple)) and len(value) > 0 and all(_is_num(x) for x in value)):
-            raise TrackerConfigError(f"{name}: expected a list of numbers, got {value!r}")
-        return tuple(float(x) for x in value)
-    if isinstance(default, int) and not isinstance(default, bool):
-        if not (isinstance(value, (int, np.integer)) and not isinstance(value, bool)):
-            raise TrackerConfigError(f"{name}: expected an integer, got {value!r}")
-        return int(value)
-    if not _is_num(value):
-        raise TrackerConfigError(f"{name}: expected a number, got {value!r}")
-    return float(value)
+def _check(name: str, default, value, **rng):
+    """``value`` checked by a ParamSpec of the field's type (the type of its
+    default: str, tuple of floats, int, float) and range ``rng``."""
+    kind = (STR if isinstance(default, str) else FLOATS if isinstance(default, tuple) else
+            INT if isinstance(default, int) and not isinstance(default, bool) else FLOAT)
+    try:
+        return ParamSpec(name, kind, default, "", **rng).check(value)
+    except ConfigError as exc:
+        raise TrackerConfigError(str(exc)) from None
