@@ -63,25 +63,38 @@ def refuse_commanded(sc, what: str) -> None:
         raise _not_supported(what)
 
 
-class FlownImu:
+class _FlownEpochs:
+    """The stamps ``t_s`` a stream draws on ``flight`` and its cursor ``k`` (the next stamp to draw);
+    a stamp is due once the flight is ``lead_s`` past it."""
+    lead_s = 0.0
+
+    def _follow(self, flight, t_s) -> None:
+        self.flight, self.t_s, self.k = flight, t_s, 0
+
+    @property
+    def done(self) -> bool:
+        """Every stamp the flight will have is drawn."""
+        f = self.flight
+        return self.k >= len(self.t_s) or (f.finished and self.t_s[self.k] + self.lead_s > f.flown_s + _EPS)
+
+    def _due(self, t_max: float):
+        """The indices of the stamps <= ``t_max`` not drawn yet, the cursor moved past each."""
+        while self.k < len(self.t_s) and self.t_s[self.k] <= t_max + _EPS:
+            self.k += 1
+            yield self.k - 1
+
+
+class FlownImu(_FlownEpochs):
     """IMU increments of a commanded flight, one command step at a time (module doc)."""
 
     def __init__(self, sc, flight):
         la = sc.data.get("lever_arm") or {}
         if la.get("enabled", False):
             raise _not_supported("lever_arm (the elastic lever arm and its load sensor)")
-        self.flight = flight
+        self._follow(flight, imu_epochs(sc["duration_s"], sc["imu.rate_hz"]))
         self.dt_s = 1.0 / sc["imu.rate_hz"]
-        self.t_s = imu_epochs(sc["duration_s"], sc["imu.rate_hz"])
         self.errors = ImuErrors.from_scenario(sc)
         self.rng, self.state = sc.rng("imu"), ImuErrorState()
-        self.k = 0                                   # the next sample to draw
-
-    @property
-    def done(self) -> bool:
-        """Every sample the flight will have is drawn."""
-        f = self.flight
-        return self.k >= len(self.t_s) or (f.finished and self.t_s[self.k] > f.flown_s + _EPS)
 
     def until_flown(self):
         """(t_s, dtheta_b_rad, dvel_b_mps) of the samples newly flown (stamps <= ``flight.flown_s``)."""
@@ -99,38 +112,29 @@ class FlownImu:
         return tuple(np.concatenate(x) for x in zip(*parts))
 
 
-class FlownFixes:
+class FlownFixes(_FlownEpochs):
     """Loosely coupled GNSS fixes of a commanded flight, one epoch at a time (module doc)."""
 
     def __init__(self, sc, flight, outages=()):
         if "raw" in sc.data["gnss"]:
             raise _not_supported("gnss.raw (the raw-GNSS receiver)")
-        self.flight, self.sc = flight, sc
-        self.t_s = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
+        self.sc = sc
+        self._follow(flight, imu_epochs(sc["duration_s"], sc["gnss.rate_hz"]))
         self.outages = tuple(parse_outages(sc.data["gnss"].get("outages_s"))) + tuple(outages)
         self.rng = sc.rng("gnss")
-        self.j = 0
-
-    @property
-    def done(self) -> bool:
-        f = self.flight
-        return self.j >= len(self.t_s) or (f.finished and self.t_s[self.j] > f.flown_s + _EPS)
 
     def until(self, t_s: float) -> list:
         """The fixes stamped <= min(t_s, flown_s), each a one-epoch ``GnssFixes`` (none inside an outage)."""
         sc, out = self.sc, []
-        t_max = min(t_s, self.flight.flown_s)
-        while self.j < len(self.t_s) and self.t_s[self.j] <= t_max + _EPS:
-            tg = self.t_s[self.j]
-            g = simulate_fixes(self.flight, self.t_s[self.j:self.j + 1], sc["gnss.pos_sigma_enu_m"],
+        for j in self._due(min(t_s, self.flight.flown_s)):
+            g = simulate_fixes(self.flight, self.t_s[j:j + 1], sc["gnss.pos_sigma_enu_m"],
                                sc["gnss.vel_sigma_enu_mps"], sc["gnss.antenna_lever_arm_b_m"], self.rng)
-            if not any(a <= tg < b for a, b in self.outages):
+            if not any(a <= self.t_s[j] < b for a, b in self.outages):       # drawn in an outage too (same noise)
                 out.append(g)
-            self.j += 1
         return out
 
 
-class FlownRaw:
+class FlownRaw(_FlownEpochs):
     """Raw-GNSS receiver epochs of a commanded flight, one epoch at a time (module doc)."""
 
     def __init__(self, sc, flight, outages=()):
@@ -146,50 +150,31 @@ class FlownRaw:
             lock = data["gnss"]["raw"].setdefault("lock", {})
             lock["outages"] = list(lock.get("outages") or []) + [[float(a), float(min(b, 1e9))] for a, b in outages]
             sc = Scenario(sc.path, data)
-        self.flight, self.lead_s = flight, ANTENNA_DIFF_S
-        self.t_s = imu_epochs(sc["duration_s"], sc["gnss.rate_hz"])
+        self.lead_s = ANTENNA_DIFF_S
+        self._follow(flight, imu_epochs(sc["duration_s"], sc["gnss.rate_hz"]))
         self.run = gnss_receiver(sc).run(flight, self.t_s, sc.rng("gnss_raw"), lazy=True)
-        self.k = 0
-
-    @property
-    def done(self) -> bool:
-        f = self.flight
-        return self.k >= len(self.t_s) or (f.finished and self.t_s[self.k] + self.lead_s > f.flown_s + _EPS)
 
     def until(self, t_s: float) -> list:
         """The receiver epochs (``GnssEpoch``) stamped <= t_s whose antenna truth is flown."""
-        out = []
-        t_max = min(t_s, self.flight.flown_s - self.lead_s)
-        while self.k < len(self.t_s) and self.t_s[self.k] <= t_max + _EPS:
-            out.append(self.run.epoch(self.k))
-            self.k += 1
-        return out
+        return [self.run.epoch(k) for k in self._due(min(t_s, self.flight.flown_s - self.lead_s))]
 
 
-class FlownMag:
+class FlownMag(_FlownEpochs):
     """Magnetometer samples of a commanded flight, one epoch at a time (module doc)."""
 
     def __init__(self, sc, flight):
         self.errors = MagnetometerErrors.from_config(sc.data["magnetometer"])
         if self.errors.map_error_model == "white_uniform" and self.errors.map_error_rms_nT > 0.0:
             raise _not_supported("magnetometer.map_error_model white_uniform")
-        self.flight, self.sc = flight, sc
-        self.t_s = imu_epochs(sc["duration_s"], sc["magnetometer.rate_hz"])
+        self.sc = sc
+        self._follow(flight, imu_epochs(sc["duration_s"], sc["magnetometer.rate_hz"]))
         self.rng = sc.rng("mag")
-        self.j = 0
-
-    @property
-    def done(self) -> bool:
-        f = self.flight
-        return self.j >= len(self.t_s) or (f.finished and self.t_s[self.j] > f.flown_s + _EPS)
 
     def until_flown(self):
         """(t_s, field_b_T) of the epochs newly flown."""
         sc, t, rows = self.sc, [], []
-        while self.j < len(self.t_s) and self.t_s[self.j] <= self.flight.flown_s + _EPS:
-            rows.append(simulate_magnetometer_T(self.flight, self.t_s[self.j:self.j + 1],
-                                                sc["magnetometer.epoch_decimal_year"],
+        for j in self._due(self.flight.flown_s):
+            rows.append(simulate_magnetometer_T(self.flight, self.t_s[j:j + 1], sc["magnetometer.epoch_decimal_year"],
                                                 sc["magnetometer.noise_nT"], self.rng, errors=self.errors)[0])
-            t.append(self.t_s[self.j])
-            self.j += 1
+            t.append(self.t_s[j])
         return np.asarray(t, float), np.asarray(rows, float).reshape(-1, 3)
