@@ -78,9 +78,14 @@ def make_flight(sc: Scenario):
     return flight_of_scenario(sc)
 
 
-def stamp_round_trip(t_s: float) -> float:
+def stamp_ns_s(t_s: float) -> tuple[int, float]:
+    """The stamp a message carries for flight time ``t_s``: (integer ns, the seconds its receiver reads)."""
     sec, nsec = s_to_stamp_fields(t_s)
-    return sec + nsec * 1e-9
+    return sec * 1_000_000_000 + nsec, sec + nsec * 1e-9
+
+
+def stamp_round_trip(t_s: float) -> float:
+    return stamp_ns_s(t_s)[1]
 
 
 def on_grid(t_s: float, period_s: float) -> bool:
@@ -207,8 +212,7 @@ class _GnssFixes:
 
     def before(self, eng, t):
         for t_s, lat, lon, alt, vel, pos_cov, vel_cov in _fix_rows(self.fixes.until(t + 1e-9)):
-            sec, nsec = s_to_stamp_fields(t_s)
-            ns, tg = sec * 1_000_000_000 + nsec, sec + nsec * 1e-9
+            ns, tg = stamp_ns_s(t_s)
             lat, lon = (np.deg2rad(float(np.rad2deg(x))) for x in (lat, lon))
             for topic, m in (("gnss/fix", GnssPosition(tg, lat, lon, alt, pos_cov)),
                              ("gnss/vel", GnssVelocity(tg, vel, vel_cov))):
@@ -219,8 +223,7 @@ class _GnssFixes:
                     self.held.setdefault(after, []).append(m)
 
     def until(self, eng, t):
-        sec, nsec = s_to_stamp_fields(t)
-        self.last_imu_ns = sec * 1_000_000_000 + nsec
+        self.last_imu_ns = stamp_ns_s(t)[0]
         for m in self.held.pop(self.last_imu_ns, ()):
             eng.add_measurement(m)
 
