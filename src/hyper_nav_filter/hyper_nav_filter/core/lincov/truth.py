@@ -34,9 +34,36 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-SIZES = {"bias": 3, "scale": 3, "misalignment": 6, "white": 0, "lever_arm": 3}
 SENSORS = ("gyro", "accel", "gnss")
 OFF_DIAGONAL = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
+
+
+def _misalignment_map(x) -> np.ndarray:
+    E = np.zeros((3, 6))
+    for k, (r, c) in enumerate(OFF_DIAGONAL):
+        E[r, k] = x[c]
+    return E
+
+
+@dataclass(frozen=True)
+class SourceKind:
+    """One kind of truth source as data: its augmented states and, for an IMU
+    output term, ``output_map(x)`` (3 x size: the output error per unit of
+    its states at the sensor's input x, body rate or specific force; the
+    table of the module docstring). None: not an IMU output term (white
+    noise enters as process noise; the lever arm through the measurements)."""
+    size: int
+    output_map: object = None
+
+
+KINDS = {
+    "bias": SourceKind(3, lambda x: np.eye(3)),
+    "scale": SourceKind(3, np.diag),
+    "misalignment": SourceKind(6, _misalignment_map),
+    "white": SourceKind(0),
+    "lever_arm": SourceKind(3),
+}
+SIZES = {k: v.size for k, v in KINDS.items()}
 
 
 @dataclass(frozen=True)
@@ -132,18 +159,11 @@ class TruthModel:
         unit of the source states at body rate w and specific force f."""
         Eg, Ea = np.zeros((3, self.dim)), np.zeros((3, self.dim))
         for s in self.state_sources():
-            if s.sensor not in ("gyro", "accel"):
+            output_map = KINDS[s.kind].output_map
+            if s.sensor not in ("gyro", "accel") or output_map is None:
                 continue
             E = Eg if s.sensor == "gyro" else Ea
-            x = np.asarray(omega_b_radps if s.sensor == "gyro" else f_b_mps2, float)
-            i = self.sl(s.name)
-            if s.kind == "bias":
-                E[:, i] = np.eye(3)
-            elif s.kind == "scale":
-                E[:, i] = np.diag(x)
-            elif s.kind == "misalignment":
-                for k, (r, c) in enumerate(OFF_DIAGONAL):
-                    E[r, i.start + k] = x[c]
+            E[:, self.sl(s.name)] = output_map(np.asarray(omega_b_radps if s.sensor == "gyro" else f_b_mps2, float))
         return Eg, Ea
 
     def carrier_map(self, layout) -> np.ndarray:
