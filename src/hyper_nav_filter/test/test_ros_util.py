@@ -25,7 +25,7 @@ class Stuck(Node):
             while True:           # a callback that never returns (a pure-Python busy loop)
                 pass
 
-run_node(Stuck, exit_grace_s=1.0)
+run_node(Stuck, exit_grace_s=1.0 if sys.argv[1] == "stuck" else 30.0)   # free: room for a slow teardown on a busy machine
 print("exited normally", flush=True)
 """
 
