@@ -11,10 +11,13 @@ shares by source over time).
 
     study_lincov --scenario default --blackout 120:240 --epochs 100,240,300
     study_lincov --scenario seed004 --blackout 100:220 --sweep imu --limit-pos-m 100
+    study_lincov --scenario default --blackout 120:180 --sweep gnss
 
 ``--sweep imu``: every catalogue IMU grade (``core.sensor_catalogue``) in
-the world and the filter tuned to it; the table says which grade keeps the
-3-D position 1-sigma under ``--limit-pos-m`` through the blackout.
+the world and the filter tuned to it; ``--sweep gnss``: every catalogue GNSS
+receiver grade's fixes (sigmas and rate) with the scenario's IMU. The table
+says which grade keeps the 3-D position 1-sigma under ``--limit-pos-m``
+through the blackout, and its 1-sigma at the end of the flight.
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ import numpy as np
 
 from hyper_nav_workbench.core import lincov_setup
 from hyper_nav_sim.core.scenario import apply_overrides, load_with_settings, set_fields
-from hyper_nav_sim.core.sensor_catalogue import IMU_GRADES, filter_tuning, grade_figures
+from hyper_nav_sim.core.sensor_catalogue import CATALOGUE, filter_tuning, grade_figures
 
 BLOCKS = (("pos", "m", 1.0), ("vel", "m/s", 1.0), ("att", "deg", 180.0 / math.pi))
 
@@ -107,7 +110,7 @@ def plot(res, path, title, windows) -> None:
     plt.close(fig)
 
 
-def plot_sweep(rows, windows, limit_pos_m, path, name) -> None:
+def plot_sweep(rows, windows, limit_pos_m, path, name, kind: str = "imu") -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -120,7 +123,7 @@ def plot_sweep(rows, windows, limit_pos_m, path, name) -> None:
         ax.axvspan(w0, w1, color="grey", alpha=0.15)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("3-D position 1-sigma, true (m)")
-    ax.set_title(f"{name}: IMU grade sweep, LinCov vs the simulated world's models (filter tuned to each grade); "
+    ax.set_title(f"{name}: {kind.upper()} grade sweep, LinCov vs the simulated world's models; "
                  "grey: GNSS blackout", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -128,16 +131,46 @@ def plot_sweep(rows, windows, limit_pos_m, path, name) -> None:
     plt.close(fig)
 
 
-def sweep(sc, windows, draws, step, limit_pos_m, out) -> list[dict]:
-    """Every catalogue IMU grade in the world, the filter tuned to it."""
+def _imu_grade(name: str) -> dict:
+    """Scenario overrides of one IMU grade: the world's IMU (biases +, -, + per axis) and the filter tuned to it."""
+    over = {f"imu.{k}": ([1.0, -1.0, 1.0] * np.asarray(v)).tolist() if k.endswith(("deg_per_hr", "_ug")) else v
+            for k, v in grade_figures(name, "imu").items()}
+    over.update({f"filter.config.{k}": v for k, v in filter_tuning(name).items()})
+    return over
+
+
+def _gnss_grade(name: str) -> dict:
+    """Scenario overrides of one GNSS receiver grade: its fix sigmas and rate (the filter weights each fix by the
+    covariance its message carries, so it is tuned to the grade by construction)."""
+    return {f"gnss.{k}": v for k, v in grade_figures(name, "gnss").items()}
+
+
+def _imu_columns(f=None) -> str:
+    if f is None:
+        return f"{'gyro b deg/h':>12s} {'ARW deg/rt h':>12s} {'acc b ug':>9s} {'VRW ug/rtHz':>11s}"
+    return (f"{f['gyro_bias_deg_per_hr']:12.3g} {f['gyro_arw_deg_per_sqrt_hr']:12.3g} {f['accel_bias_ug']:9.4g} "
+            f"{f['accel_vrw_ug_per_sqrt_hz']:11.4g}")
+
+
+def _gnss_columns(f=None) -> str:
+    if f is None:
+        return f"{'pos sig E/N/U m':>18s} {'vel sig E/N/U m/s':>20s} {'rate Hz':>7s}"
+    return (f"{'/'.join(f'{x:.2f}' for x in f['pos_sigma_enu_m']):>18s} "
+            f"{'/'.join(f'{x:.3f}' for x in f['vel_sigma_enu_mps']):>20s} {f['rate_hz']:7.3g}")
+
+
+# --sweep KIND: the catalogue block, its scenario overrides per grade, its table columns
+SWEEPS = {"imu": (_imu_grade, _imu_columns, "world and filter per catalogue IMU grade"),
+          "gnss": (_gnss_grade, _gnss_columns, "fixes per catalogue GNSS receiver grade, the scenario's IMU")}
+
+
+def sweep(sc, windows, draws, step, limit_pos_m, out, kind: str = "imu") -> list[dict]:
+    """Every catalogue grade of ``kind`` (imu: in the world, the filter tuned to it; gnss: the receiver's fixes)."""
     import tempfile
+    overrides, columns, what = SWEEPS[kind]
     rows = []
-    for name in IMU_GRADES:
-        f = grade_figures(name)
-        over = {f"imu.{k}": ([1.0, -1.0, 1.0] * np.asarray(v)).tolist() if k.endswith(("deg_per_hr", "_ug")) else v
-                for k, v in f.items()}
-        over.update({f"filter.config.{k}": v for k, v in filter_tuning(name).items()})
-        sg = apply_overrides(sc, over, pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_sweep_")))
+    for name, grade in CATALOGUE[kind].items():
+        sg = apply_overrides(sc, overrides(name), pathlib.Path(tempfile.mkdtemp(prefix="hyper_nav_sweep_")))
         res = lincov_setup.build(sg, draws=draws, step_s=step, outages_s=windows).run(record_every=1)
         pos = np.sqrt(res.total_var[:, 6:9].sum(axis=1))
         inside = np.zeros(len(res.t_s), bool)
@@ -146,24 +179,23 @@ def sweep(sc, windows, draws, step, limit_pos_m, out) -> list[dict]:
         k = int(np.argmax(np.where(inside, pos, -1))) if inside.any() else len(pos) - 1
         share = res.share("pos", k)
         top = sorted(share.items(), key=lambda x: -x[1])[:2]
-        rows.append({"grade": name, "description": IMU_GRADES[name]["description"], "figures": f,
+        rows.append({"grade": name, "description": grade["description"], "figures": grade_figures(name, kind),
                      "max_pos_sigma_3d_in_blackout_m": float(pos[k]), "at_t_s": float(res.t_s[k]),
+                     "final_pos_sigma_3d_m": float(pos[-1]),
                      "filter_pos_sigma_3d_m": float(math.sqrt(res.filter_var[k, 6:9].sum())),
                      "meets": bool(pos[k] < limit_pos_m), "dominant_sources": {g: round(s, 3) for g, s in top},
                      "cpu_s": res.cpu_s, "_series": (res.t_s, pos)})
-    plot_sweep(rows, windows, limit_pos_m, out / "sweep.png", sc.name)
+    plot_sweep(rows, windows, limit_pos_m, out / f"sweep_{kind}.png", sc.name, kind)
     for r in rows:
         r.pop("_series")
-    print(f"\n grade sweep: world and filter per catalogue IMU grade; 3-D position 1-sigma (LinCov, simulated "
-          f"world's models), largest inside the blackout {windows}; limit {limit_pos_m:g} m")
-    print(f" {'grade':16s} {'gyro b deg/h':>12s} {'ARW deg/rt h':>12s} {'acc b ug':>9s} {'VRW ug/rtHz':>11s} "
-          f"{'pos 1-sig m':>11s} {'meets':>6s}  dominant sources (variance share)")
+    print(f"\n grade sweep: {what}; 3-D position 1-sigma (LinCov, simulated world's models), largest inside the "
+          f"blackout {windows} (the end of the flight without one); limit {limit_pos_m:g} m")
+    print(f" {'grade':16s} {columns()} {'pos 1-sig m':>11s} {'at end m':>9s} {'meets':>6s}  dominant sources "
+          f"(variance share)")
     for r in rows:
-        f = r["figures"]
         dom = ", ".join(f"{g} {100 * s:.0f}%" for g, s in r["dominant_sources"].items())
-        print(f" {r['grade']:16s} {f['gyro_bias_deg_per_hr']:12.3g} {f['gyro_arw_deg_per_sqrt_hr']:12.3g} "
-              f"{f['accel_bias_ug']:9.4g} {f['accel_vrw_ug_per_sqrt_hz']:11.4g} "
-              f"{r['max_pos_sigma_3d_in_blackout_m']:11.1f} {'yes' if r['meets'] else 'no':>6s}  {dom}")
+        print(f" {r['grade']:16s} {columns(r['figures'])} {r['max_pos_sigma_3d_in_blackout_m']:11.1f} "
+              f"{r['final_pos_sigma_3d_m']:9.2f} {'yes' if r['meets'] else 'no':>6s}  {dom}")
     return rows
 
 
@@ -179,7 +211,8 @@ def main(argv=None) -> int:
                     help="prior: the world as mc_campaign draws it; scenario: the fixed values as 1-sigma")
     ap.add_argument("--step", type=float, default=None, help="LinCov step (s); default 0.1 or the GNSS period")
     ap.add_argument("--lever-arm-sigma-m", type=float, default=0.0, help="GNSS lever-arm uncertainty, per axis (m)")
-    ap.add_argument("--sweep", choices=("imu",), default=None, help="also sweep the catalogue's IMU grades")
+    ap.add_argument("--sweep", choices=tuple(SWEEPS), action="append", default=[],
+                    help="also sweep the catalogue's grades of this sensor (imu, gnss; repeatable)")
     ap.add_argument("--limit-pos-m", type=float, default=100.0, help="sweep requirement on 3-D position 1-sigma")
     ap.add_argument("--out", default="results/lincov")
     a = ap.parse_args(argv)
@@ -207,8 +240,9 @@ def main(argv=None) -> int:
                           "var_enu_by_group": res.var[keep].tolist(),
                           "filter_var_enu": res.filter_var[keep].tolist(),
                           "order": "att E N U (rad^2), vel E N U ((m/s)^2), pos E N U (m^2)"}}
-    if a.sweep:
-        doc["sweep"] = sweep(sc, list(windows), a.draws, a.step, a.limit_pos_m, out)
+    for kind in a.sweep:
+        doc["sweep" if kind == "imu" else f"sweep_{kind}"] = sweep(sc, list(windows), a.draws, a.step,
+                                                                  a.limit_pos_m, out, kind)
     (out / "budget.json").write_text(json.dumps(doc, indent=1))
     plot(res, out / "budget.png", f"LinCov error budget, {sc.name} (simulated world's error models, draws="
          f"{a.draws}); grey: GNSS outages", windows)

@@ -403,9 +403,10 @@ def validate(data, source: str = "<dict>") -> dict:
         raise ScenarioError(f"{source}: top level must be a mapping")
     data = _drop_nulls(copy.deepcopy(data))
     try:
-        from .sensor_catalogue import apply_grade          # imu: {grade: tactical, ...overrides}
-        if isinstance(data.get("imu"), dict):
-            data["imu"] = apply_grade(data["imu"])
+        from .sensor_catalogue import CATALOGUE, apply_grade     # imu: {grade: tactical, ...overrides}, gnss: ...
+        for block in CATALOGUE:
+            if isinstance(data.get(block), dict):
+                data[block] = apply_grade(data[block], block)
     except ValueError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
     try:

@@ -55,7 +55,7 @@ def _gnss_parameters(sc, subscribers) -> dict:
 
 
 def _gnss_fields():
-    return {"raw", "outages_s"}       # outages_s: loose fixes withheld in [t0, t1) windows
+    return {"raw", "outages_s", "grade"}       # outages_s: loose fixes withheld in [t0, t1) windows; grade: catalogue
 
 
 def _gnss_validate(block):
@@ -72,7 +72,7 @@ GNSS = SensorNode(name="gnss", package="hyper_nav_sim", executable="gnss_node", 
 # ---- magnetometer: imu/mag --------------------------------------------------------------------
 def _mag_fields():
     from ..core.mag_model import CONFIG_FIELDS
-    return set(CONFIG_FIELDS)
+    return set(CONFIG_FIELDS) | {"grade"}                            # grade: core.sensor_catalogue
 
 
 def _mag_validate(block):
@@ -88,7 +88,7 @@ MAG = SensorNode(name="mag", package="hyper_nav_sim", executable="mag_node", blo
 # ---- barometer: baro/pressure, started by a barometer block ------------------------------------
 def _baro_fields():
     from ..core.baro_model import CONFIG_FIELDS
-    return set(CONFIG_FIELDS) | {"rate_hz"}
+    return set(CONFIG_FIELDS) | {"rate_hz", "grade"}                 # grade: core.sensor_catalogue
 
 
 def _baro_validate(block):
