@@ -80,7 +80,8 @@ MOVED = {
     'hyper_nav_filter.core.gnss.signals': 'hyper_nav_gnss.signals',
     'hyper_nav_filter.core.gnss.spp': 'hyper_nav_gnss.positioning.spp',
     'hyper_nav_filter.core.gnss.ubx': 'hyper_nav_gnss.formats.ubx',
-    'hyper_nav_filter.core.gnss.weighting': 'hyper_nav_gnss.positioning.weighting',
+    'hyper_nav_filter.core.gnss.weighting': 'hyper_nav_gnss.corrections.weighting',
+    'hyper_nav_gnss.positioning.weighting': 'hyper_nav_gnss.corrections.weighting',   # the error model: below positioning
     'hyper_nav_filter.core.tracking': 'hyper_nav_filter.core.target_tracking',
     'hyper_nav_filter.core.tracking.aekf': 'hyper_nav_filter.core.target_tracking.aekf',
     'hyper_nav_filter.core.tracking.augmented': 'hyper_nav_filter.core.target_tracking.augmented',

@@ -140,3 +140,14 @@ def position_error_enu_m(lat_rad, lon_rad, alt_m, lat_ref_rad, lon_ref_rad, alt_
     return _vec3(d_lon * (r_n + alt_ref_m) * np.cos(lat_ref_rad),
                  (lat_rad - lat_ref_rad) * (r_m + alt_ref_m),
                  alt_m - alt_ref_m)
+
+
+def elevation_azimuth(r_rx_e_m, r_sat_e_m, geodetic=None):
+    """Elevation and azimuth [rad] of ECEF points r_sat (N,3) seen from r_rx (3,),
+    in the receiver's geodetic ENU frame (azimuth from north, east positive).
+    ``geodetic``: (lat, lon, alt) of r_rx when the caller has it already."""
+    lat, lon, _ = ecef_to_geodetic(np.asarray(r_rx_e_m, float)) if geodetic is None else geodetic
+    d_enu = (np.atleast_2d(r_sat_e_m) - r_rx_e_m) @ C_n_e(lat, lon)
+    el = np.arctan2(d_enu[:, 2], np.hypot(d_enu[:, 0], d_enu[:, 1]))
+    az = np.mod(np.arctan2(d_enu[:, 0], d_enu[:, 1]), 2 * np.pi)
+    return el, az

@@ -1,5 +1,5 @@
 """Receiver-satellite geometry: light-time (transmit-time) solution with the
-Sagnac rotation, and elevation/azimuth in the receiver's ENU frame.
+Sagnac rotation (elevation/azimuth in the receiver's ENU frame: ``earth.elevation_azimuth``).
 
 The signal received at true time t (continuous GPST) left the satellite at
 t - tau; its position then, r_sat(t - tau), is expressed in the Earth-fixed
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hyper_nav_gnss import earth
+from hyper_nav_gnss.earth import elevation_azimuth  # noqa: F401  (its home is earth; named here too)
 from hyper_nav_gnss.orbits.ephemeris import C_MPS, EphemerisStack, constants, satellite_position_ecef, system_time_s
 
 
@@ -58,14 +58,3 @@ def satellite_states_at_reception(ephs, t_gpst_s, r_rx_e_m, iters=4):
         tau[idx], we[idx] = tau_g, w
     R, dR = rot3(we * tau)
     return r, v, cb, cd, tau, R, dR * we[:, None, None]
-
-
-def elevation_azimuth(r_rx_e_m, r_sat_e_m, geodetic=None):
-    """Elevation and azimuth [rad] of ECEF points r_sat (N,3) seen from r_rx (3,),
-    in the receiver's geodetic ENU frame (azimuth from north, east positive).
-    ``geodetic``: (lat, lon, alt) of r_rx when the caller has it already."""
-    lat, lon, _ = earth.ecef_to_geodetic(np.asarray(r_rx_e_m, float)) if geodetic is None else geodetic
-    d_enu = (np.atleast_2d(r_sat_e_m) - r_rx_e_m) @ earth.C_n_e(lat, lon)
-    el = np.arctan2(d_enu[:, 2], np.hypot(d_enu[:, 0], d_enu[:, 1]))
-    az = np.mod(np.arctan2(d_enu[:, 0], d_enu[:, 1]), 2 * np.pi)
-    return el, az

@@ -41,7 +41,7 @@ def real_receiver_model(p: dict, corr: ReceiverCorrections):
     troposphere settings); errors name the field."""
     from hyper_nav_gnss.corrections.combinations import parse_plan
     from hyper_nav_gnss.corrections.receiver_model import ReceiverModel
-    from hyper_nav_gnss.positioning.weighting import ErrorModel
+    from hyper_nav_gnss.corrections.weighting import ErrorModel
     plan = {}
     for entry in p["signals"]:
         sysc, _, choices = str(entry).partition(":")

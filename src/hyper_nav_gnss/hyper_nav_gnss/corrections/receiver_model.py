@@ -42,7 +42,7 @@ from hyper_nav_gnss.geometry import elevation_azimuth, satellite_states_at_recep
 from hyper_nav_gnss.corrections.propagation import F_L1_HZ, hopfield_delay_m, klobuchar_delay_m
 from hyper_nav_gnss.corrections.signal_delays import NoGroupDelay, galileo_clock_for, group_delay_s
 from hyper_nav_gnss.signals import frequency_hz
-from hyper_nav_gnss.positioning.weighting import ErrorModel
+from hyper_nav_gnss.corrections.weighting import ErrorModel
 
 MODELLED_SYSTEMS = ("G", "E", "C", "J")
 

@@ -46,7 +46,7 @@ from hyper_nav_gnss.orbits.ephemeris import calendar_to_system_s
 from hyper_nav_gnss.observations import RawGnssEpoch
 from hyper_nav_gnss.formats.rinex_file import RinexFormatError, read_rinex_text, rinex_version
 from hyper_nav_gnss.signals import C_MPS, has_frequency, frequency_hz
-from hyper_nav_gnss.positioning.weighting import code_sigma_m
+from hyper_nav_gnss.corrections.weighting import code_sigma_m
 
 TRACK_PR_VALID, TRACK_CP_VALID, TRACK_HALF_CYCLE, TRACK_DOPPLER_VALID = 1, 2, 4, 8
 MAX_ERRORS = 20

@@ -29,7 +29,7 @@ import numpy as np
 from hyper_nav_gnss.orbits.ephemeris import (
     BroadcastEphemeris, constants, satellite_position_ecef, shift_ephemeris, system_time_s,
 )
-from hyper_nav_gnss.geometry import elevation_azimuth
+from hyper_nav_gnss.earth import elevation_azimuth
 
 
 def is_geosynchronous(eph: BroadcastEphemeris) -> bool:

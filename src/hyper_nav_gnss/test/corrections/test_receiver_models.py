@@ -18,7 +18,7 @@ from hyper_nav_gnss.observations import RawGnssEpoch
 from hyper_nav_gnss.corrections.receiver_model import ReceiverModel, satellite_observations
 from hyper_nav_gnss.corrections.signal_delays import group_delay_s
 from hyper_nav_gnss.signals import C_MPS, frequency_hz
-from hyper_nav_gnss.positioning.weighting import ErrorModel, code_sigma_m
+from hyper_nav_gnss.corrections.weighting import ErrorModel, code_sigma_m
 
 
 def _eph(system="G", prn=5, tgd=-1.1e-8, tgd2=0.0, source=0):

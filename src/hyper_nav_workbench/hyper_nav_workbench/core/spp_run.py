@@ -46,7 +46,7 @@ from hyper_nav_gnss.positioning import spp as spp_core
 from hyper_nav_gnss.corrections.combinations import parse_plan
 from hyper_nav_gnss.observations import EphemerisStore, MalformedGnssInput
 from hyper_nav_gnss.corrections.receiver_model import ReceiverModel
-from hyper_nav_gnss.positioning.weighting import ErrorModel
+from hyper_nav_gnss.corrections.weighting import ErrorModel
 from hyper_nav_gnss.formats.registry import RECEIVER_FORMATS, detect, receiver_format
 from hyper_nav_filter.core.params import ConfigError, suggest
 
