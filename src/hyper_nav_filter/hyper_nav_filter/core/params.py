@@ -240,21 +240,27 @@ def nonneg(name, type_, default, description, **kw) -> ParamSpec:
     return ParamSpec(name, type_, default, description, lo=0.0, **kw)
 
 
-def number(name: str, value, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
-           hi_open: bool = False, interval: bool = False, error: type[Exception] = ConfigError) -> float:
-    """One number of a block its own parser reads key by key (the flight,
-    the GNSS receiver, the world, the elastic lever arm, the virtual
-    receiver), checked by the same rule as a declared parameter
-    (``ParamSpec(name, FLOAT, ...)``: a finite number, ``lo``/``hi``
-    inclusive unless open); the error names the field and is raised as
+def checked(name: str, value, type_: str, *, error: type[Exception] = ConfigError, **rules):
+    """One value of a block its own parser reads key by key (the flight, the
+    GNSS receiver, the world, the elastic lever arm, the virtual receiver, the
+    magnetometer, the geomagnetic map), checked by the same rule as a
+    declared parameter: ``ParamSpec(name, type_, ..., **rules)`` (``lo``,
+    ``hi``, ``lo_open``, ``hi_open``, ``interval``, ``length``,
+    ``broadcast``, ``choices``); the error names the field and is raised as
     ``error`` (the caller's own error type)."""
     try:
-        return ParamSpec(name, FLOAT, None, "", lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open,
-                         interval=interval).check(value)
+        return ParamSpec(name, type_, None, "", **rules).check(value)
     except ConfigError as exc:
         if error is ConfigError:
             raise
         raise error(str(exc)) from None
+
+
+def number(name: str, value, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+           hi_open: bool = False, interval: bool = False, error: type[Exception] = ConfigError) -> float:
+    """A finite number (``lo``/``hi`` inclusive unless open): :func:`checked` of a FLOAT."""
+    return checked(name, value, FLOAT, error=error, lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open,
+                   interval=interval)
 
 
 def check_all(specs, values: dict, where: str = "") -> dict:

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from hyper_nav_filter.core.params import (
-    FLOAT, FLOATS, INT, REQUIRED, ConfigError, ParamSpec, number,
+    BOOL, FLOAT, FLOATS, INT, REQUIRED, ConfigError, ParamSpec, checked, number,
 )
 
 
@@ -61,3 +61,18 @@ def test_required_and_the_number_rule_of_parsers():
         number("flight.x", float("inf"), error=ValueError)
     with pytest.raises(ValueError, match=r"^tracker.imm_p_stay: must be within \(0, 1\), got 1.0$"):
         number("tracker.imm_p_stay", 1, 0.0, 1.0, lo_open=True, hi_open=True, interval=True, error=ValueError)
+
+
+def test_checked_is_one_declared_field_of_a_parser():
+    """``checked``: a block read key by key (the world, the lever arm, the magnetometer, the virtual receiver,
+    the geomagnetic map) checks each value as a ParamSpec of one field, raising the parser's own error."""
+    class BlockError(ValueError):
+        pass
+    with pytest.raises(BlockError, match=r"^world.x.enabled: expected true or false, got 'yes'$"):
+        checked("world.x.enabled", "yes", BOOL, error=BlockError)
+    with pytest.raises(BlockError, match=r"^map.refine_factor: must be >= 1, got 0$"):
+        checked("map.refine_factor", 0, INT, lo=1, error=BlockError)
+    with pytest.raises(BlockError, match=r"^lever_arm.axis: expected a list of 3 numbers, got 2.0$"):
+        checked("lever_arm.axis", 2.0, FLOATS, length=3, broadcast=False, error=BlockError)
+    assert checked("map.alt_m", 26000, FLOAT) == 26000.0
+

@@ -87,7 +87,7 @@ from hyper_nav_filter.core.elastic_lever_arm import (TABLE2_FREQ_RADPS, TABLE4_F
 from hyper_nav_filter.core.elastic_lever_arm import lever_arm_dvel as _lever_arm_dvel
 from hyper_nav_filter.core.elastic_lever_arm import zoh_matrices as _zoh_matrices
 
-from hyper_nav_filter.core.params import number, unknown_field
+from hyper_nav_filter.core.params import BOOL, FLOATS, checked, number, unknown_field
 
 
 _DEFAULTS = {
@@ -115,9 +115,8 @@ def _num(name, v, positive=False, nonneg=False):
 
 
 def _vec3(name, v, positive=False, nonneg=False):
-    if not (isinstance(v, (list, tuple, np.ndarray)) and len(v) == 3):
-        raise ValueError(f"{name}: expected a list of 3 numbers, got {v!r}")
-    return np.array([_num(name, x, positive, nonneg) for x in v])
+    return np.array(checked(name, v, FLOATS, length=3, broadcast=False, lo=0.0 if positive or nonneg else None,
+                            lo_open=positive, error=ValueError))
 
 
 def _damping(name, v):
@@ -157,8 +156,7 @@ class LeverArmConfig:
         g = {**_DEFAULTS, **d}
         n = lambda k: f"{prefix}.{k}"  # noqa: E731
         for k in ("enabled", "start_at_equilibrium"):
-            if not isinstance(g[k], bool):
-                raise ValueError(f"{n(k)}: expected true or false, got {g[k]!r}")
+            checked(n(k), g[k], BOOL, error=ValueError)
         axis = _vec3(n("deflection_axis_b"), g["deflection_axis_b"])
         if np.linalg.norm(axis) == 0:
             raise ValueError(f"{n('deflection_axis_b')}: must be non-zero")

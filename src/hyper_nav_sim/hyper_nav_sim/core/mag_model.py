@@ -42,7 +42,7 @@ import numpy as np
 from hyper_nav_gnss import earth
 
 from hyper_nav_filter.core import wmm
-from hyper_nav_filter.core.params import number, unknown_field
+from hyper_nav_filter.core.params import INT, checked, number, unknown_field
 MAP_ERROR_MODELS = ("correlated", "white_uniform")
 
 
@@ -128,8 +128,8 @@ class MagnetometerErrors:
             return a
 
         for k in ("map_error_n_waves", "map_error_seed"):
-            if k in d and not (isinstance(d[k], int) and not isinstance(d[k], bool)):
-                raise ValueError(f"{prefix}.{k}: expected an integer, got {d[k]!r}")
+            if k in d:
+                checked(f"{prefix}.{k}", d[k], INT, error=ValueError)
         model = d.get("map_error_model", "correlated")
         if model not in MAP_ERROR_MODELS:
             raise ValueError(f"{prefix}.map_error_model: expected one of {list(MAP_ERROR_MODELS)}, got {model!r}")

@@ -36,6 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hyper_nav_filter.core.params import BOOL, checked, number
+
 WORLD_MODELS = ("realistic", "perfect")
 # field -> (default, lower bound, upper bound) ; bounds inclusive, None = open
 _IONO = {"klobuchar_error_rms": (0.5, 0.0, 5.0), "correlation_length_km": (1000.0, 1.0, 2e4),
@@ -51,11 +53,12 @@ LEVER_ARM_INTEGRATORS = ("rk4", "zoh")
 
 
 def _number(name, v, lo, hi):
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v):
-        raise ValueError(f"{name}: expected a number, got {v!r}")
-    if (lo is not None and v < lo) or (hi is not None and v > hi):
+    """A finite number in [lo, hi]; out of range is worded '<v> outside [lo, hi]' (asserted by test_world;
+    the type check is params.number's)."""
+    x = number(name, v, error=ValueError)
+    if (lo is not None and x < lo) or (hi is not None and x > hi):
         raise ValueError(f"{name}: {v} outside [{lo}, {hi}]")
-    return float(v)
+    return x
 
 
 def _block(prefix, d, numbers, bools=None):
@@ -69,10 +72,7 @@ def _block(prefix, d, numbers, bools=None):
         raise ValueError(f"{prefix}.{unknown[0]}: unknown field (known: {sorted(set(numbers) | set(bools))})")
     out = {k: _number(f"{prefix}.{k}", d.get(k, dv), lo, hi) for k, (dv, lo, hi) in numbers.items()}
     for k, dv in bools.items():
-        v = d.get(k, dv)
-        if not isinstance(v, bool):
-            raise ValueError(f"{prefix}.{k}: expected true or false, got {v!r}")
-        out[k] = v
+        out[k] = checked(f"{prefix}.{k}", d.get(k, dv), BOOL, error=ValueError)
     return out
 
 

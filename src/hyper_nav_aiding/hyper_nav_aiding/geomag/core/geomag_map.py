@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import RectBivariateSpline
 
+from hyper_nav_filter.core.params import FLOAT, INT, checked
 from hyper_nav_gnss import earth
 
 LAYERS = ("F", "B_E", "B_N", "B_U", "dF_dh", "dB_E_dh", "dB_N_dh", "dB_U_dh")
@@ -83,14 +84,10 @@ class MapSpec:
     def __post_init__(self):
         for f in ("epoch_decimal_year", "alt_m", "lat_min_deg", "lat_max_deg", "lon_min_deg", "lon_max_deg",
                   "grid_step_deg", "dh_m"):
-            v = getattr(self, f)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)):
-                raise MapError(f"map.{f}: expected a number, got {v!r}")
+            checked(f"map.{f}", getattr(self, f), FLOAT, error=MapError)
         if not isinstance(self.model, str) or not self.model:
             raise MapError(f"map.model: expected a model name, got {self.model!r}")
-        if not (isinstance(self.refine_factor, int) and not isinstance(self.refine_factor, bool)
-                and self.refine_factor >= 1):
-            raise MapError(f"map.refine_factor: expected an integer >= 1, got {self.refine_factor!r}")
+        checked("map.refine_factor", self.refine_factor, INT, lo=1, error=MapError)
         if not -90.0 <= self.lat_min_deg < self.lat_max_deg <= 90.0:
             raise MapError(f"map.lat_min_deg/lat_max_deg: need -90 <= min < max <= 90, "
                            f"got {self.lat_min_deg}, {self.lat_max_deg}")

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from hyper_nav_filter.core.params import number
+from hyper_nav_filter.core.params import BOOL, checked, number
 
 POSITION_SOURCES = ("fused", "alpha_beta")
 
@@ -63,8 +63,7 @@ class VirtualGnssConfig:
                 raise VirtualGnssConfigError(f"{prefix}.{k}: unknown field (known: {sorted(known)})")
         g = {**{f.name: f.default for f in fields(cls)}, **d}
         for k in ("enabled", "add_noise", "consistent_covariance"):
-            if not isinstance(g[k], bool):
-                raise VirtualGnssConfigError(f"{prefix}.{k}: expected true or false, got {g[k]!r}")
+            checked(f"{prefix}.{k}", g[k], BOOL, error=VirtualGnssConfigError)
         if not isinstance(g["topic"], str) or not g["topic"]:
             raise VirtualGnssConfigError(f"{prefix}.topic: expected a topic name, got {g['topic']!r}")
         if g["position_source"] not in POSITION_SOURCES:
