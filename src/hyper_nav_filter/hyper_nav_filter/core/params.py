@@ -53,8 +53,8 @@ class ParamSpec:
     every element (inclusive; ``lo_open``/``hi_open`` make them strict),
     ``choices`` restricts strings. ``updatable``: a time-stamped model update
     (``core.model_update``) may change it while the filter runs.
-    ``interval``: a range error states the interval ("within (-90, 90)")
-    instead of the bound crossed; ``quantity`` names what the value is in a
+    ``interval``: a range error states the interval ("expected a number in
+    [0, 1e+06]", "expected an integer in [2, 1000]") instead of the bound crossed; ``quantity`` names what the value is in a
     range error ("a standard deviation must be > 0"); ``rule``: a condition
     on the whole checked value that no range says (a unit quaternion),
     returning the error text or None. ``default`` :data:`REQUIRED`: a file
@@ -151,9 +151,10 @@ class ParamSpec:
         if not (low or high):
             return
         if self.interval and self.lo is not None and self.hi is not None:
-            bound = (f"within {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}"
-                     f"{')' if self.hi_open else ']'}")
-        elif low:
+            span = f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}{')' if self.hi_open else ']'}"
+            what = "an integer" if self.type == INT else "a number"
+            raise ConfigError(f"{name}: expected {what} in {span}, got {x!r}")
+        if low:
             bound = f"{'>' if self.lo_open else '>='} {self.lo:g}"
         else:
             bound = f"{'<' if self.hi_open else '<='} {self.hi:g}"

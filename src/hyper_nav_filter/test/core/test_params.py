@@ -24,10 +24,13 @@ def test_bound_crossed_is_named_and_the_value_is_shown_as_coerced():
 def test_interval_wording_follows_the_openness_of_each_bound():
     lat = ParamSpec("lat_deg", FLOAT, 0.0, "", lo=-90.0, hi=90.0, lo_open=True, hi_open=True, interval=True)
     lon = ParamSpec("lon_deg", FLOAT, 0.0, "", lo=-180.0, hi=180.0, interval=True)
-    with pytest.raises(ConfigError, match=r"^lat_deg: must be within \(-90, 90\), got 90.0$"):
+    with pytest.raises(ConfigError, match=r"^lat_deg: expected a number in \(-90, 90\), got 90.0$"):
         lat.check(90.0)
-    with pytest.raises(ConfigError, match=r"^lon_deg: must be within \[-180, 180\], got -180.5$"):
+    with pytest.raises(ConfigError, match=r"^lon_deg: expected a number in \[-180, 180\], got -180.5$"):
         lon.check(-180.5)
+    n = ParamSpec("sequence_length", INT, 10, "", lo=2, hi=1000, interval=True)
+    with pytest.raises(ConfigError, match=r"^sequence_length: expected an integer in \[2, 1000\], got 1$"):
+        n.check(1)
     assert lon.check(180) == 180.0 and lat.check(-89.9) == -89.9
     plain = ParamSpec("lat_deg", FLOAT, 0.0, "", lo=-90.0, hi=90.0)      # without: the bound crossed
     with pytest.raises(ConfigError, match=r"^lat_deg: must be <= 90, got 91.0$"):
@@ -59,7 +62,7 @@ def test_required_and_the_number_rule_of_parsers():
     assert repr(REQUIRED) == "REQUIRED"
     with pytest.raises(ValueError, match=r"^flight.x: expected a finite number, got inf$"):
         number("flight.x", float("inf"), error=ValueError)
-    with pytest.raises(ValueError, match=r"^tracker.imm_p_stay: must be within \(0, 1\), got 1.0$"):
+    with pytest.raises(ValueError, match=r"^tracker.imm_p_stay: expected a number in \(0, 1\), got 1.0$"):
         number("tracker.imm_p_stay", 1, 0.0, 1.0, lo_open=True, hi_open=True, interval=True, error=ValueError)
 
 

@@ -13,9 +13,9 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-import numpy as np
 
 from hyper_nav_aiding.geomag.core.geomag_map import MapError, MapSpec
+from hyper_nav_filter.core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec
 
 ALGORITHMS = ("MAGCOM", "ICCP", "SIMAN", "EKF")
 FIX_COVARIANCES = ("isotropic", "geometry")
@@ -192,38 +192,18 @@ def _ros_value(v, default=None):
 
 
 def _check(name: str, f, v):
-    """Validate one leaf value against the field's type, range and choices."""
-    md = f.metadata
-    default = f.default
-    lo, hi, choices = md.get("min"), md.get("max"), md.get("choices")
-    if isinstance(default, bool):
-        if not isinstance(v, bool):
-            raise GeomagConfigError(f"{name}: expected true or false, got {v!r}")
-        return v
-    if isinstance(default, int):
-        if not (isinstance(v, int) and not isinstance(v, bool)) or (lo is not None and v < lo) or \
-                (hi is not None and v > hi):
-            raise GeomagConfigError(f"{name}: expected an integer in [{lo}, {hi}], got {v!r}")
-        return v
-    if isinstance(default, float):
-        if not (isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)) or \
-                (lo is not None and v < lo) or (hi is not None and v > hi):
-            raise GeomagConfigError(f"{name}: expected a number in [{lo}, {hi}], got {v!r}")
-        return float(v)
-    if isinstance(default, str):
-        if not isinstance(v, str) or (choices and v not in choices):
-            want = f"one of {list(choices)}" if choices else "a string"
-            raise GeomagConfigError(f"{name}: expected {want}, got {v!r}")
-        return v
-    if isinstance(default, tuple):
-        ok = isinstance(v, (list, tuple)) and len(v) == len(default) and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v)
-        if ok and lo is not None:
-            ok = all(x >= lo for x in v)
-        if ok and hi is not None:
-            ok = all(x <= hi for x in v)
-        if not ok:
-            raise GeomagConfigError(f"{name}: expected a list of {len(default)} numbers"
-                                    f"{'' if lo is None else f' in [{lo}, {hi}]'}, got {v!r}")
-        return tuple(float(x) for x in v)
-    raise GeomagConfigError(f"{name}: unsupported field type")  # pragma: no cover
+    """One leaf value checked by the ParamSpec its field declares (``hyper_nav_filter.core.params``, the
+    project's one validation rule): the type of its default, its range as an interval, its choices."""
+    md, default = f.metadata, f.default
+    kind = (BOOL if isinstance(default, bool) else INT if isinstance(default, int) else
+            FLOAT if isinstance(default, float) else STR if isinstance(default, str) else
+            FLOATS if isinstance(default, tuple) else None)
+    if kind is None:
+        raise GeomagConfigError(f"{name}: unsupported field type")  # pragma: no cover
+    spec = ParamSpec(name, kind, default, md.get("desc", ""), lo=md.get("min"), hi=md.get("max"),
+                     choices=tuple(md["choices"]) if md.get("choices") else None,
+                     length=len(default) if kind == FLOATS else None, broadcast=False, interval=True)
+    try:
+        return spec.check(v)
+    except ConfigError as exc:
+        raise GeomagConfigError(str(exc)) from None
