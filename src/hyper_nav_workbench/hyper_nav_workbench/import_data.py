@@ -91,7 +91,7 @@ import numpy as np
 import yaml
 
 from hyper_nav_filter.core import units
-from hyper_nav_filter.core.params import ConfigError
+from hyper_nav_filter.core.params import ConfigError, number
 from hyper_nav_filter.filter_setup import FilterSetup
 from hyper_nav_gnss.formats.registry import RECEIVER_FORMATS
 
@@ -328,8 +328,7 @@ def _alignment_spec(spec) -> dict:
     spec = dict(spec or {})
     columns.check_fields(spec, ALIGNMENT_KNOWN, "alignment")
     for k, v in spec.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-            raise ConfigError(f"alignment.{k}: expected a number >= 0, got {v!r}")
+        number(f"alignment.{k}", v, 0.0)
     return spec
 
 

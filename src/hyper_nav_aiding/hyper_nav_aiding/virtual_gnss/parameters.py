@@ -9,6 +9,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from hyper_nav_gnss.corrections.propagation import KLOBUCHAR_ALPHA_DEFAULT, KLOBUCHAR_BETA_DEFAULT
+from hyper_nav_filter.core.params import number
 from hyper_nav_filter.core.raw_to_pseudoranges import ReceiverCorrections
 
 from hyper_nav_aiding.virtual_gnss.core.virtual_gnss_config import VirtualGnssConfig, VirtualGnssConfigError
@@ -94,10 +95,8 @@ class VirtualGnssNodeParams:
         lever = np.asarray(v["antenna_lever_arm_b_m"], float)
         if lever.shape != (3,) or not np.all(np.isfinite(lever)):
             raise VirtualGnssConfigError(f"antenna_lever_arm_b_m: expected 3 numbers, got {v['antenna_lever_arm_b_m']!r}")
-        rate = v["gnss.rate_hz"]
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0:
-            raise VirtualGnssConfigError(f"gnss.rate_hz: expected a number > 0, got {rate!r}")
-        return cls(cfg, corr, float(rate), lever, int(v["seed"]), int(v["qos.depth"]),
+        rate = number("gnss.rate_hz", v["gnss.rate_hz"], 0.0, lo_open=True, error=VirtualGnssConfigError)
+        return cls(cfg, corr, rate, lever, int(v["seed"]), int(v["qos.depth"]),
                    int(v["min_output_subscribers"]), str(v["frame_id"]), float(v["clock.deadline_s"]))
 
 

@@ -78,7 +78,7 @@ from scipy.spatial.transform import Rotation
 
 from hyper_nav_filter.core import units
 from hyper_nav_gnss.earth import G0_MPS2
-from hyper_nav_filter.core.params import ConfigError
+from hyper_nav_filter.core.params import ConfigError, number
 
 from hyper_nav_filter.core.params import unknown_field
 
@@ -300,10 +300,7 @@ def stamps(data, spec, where, base_dir=None) -> np.ndarray:
         tab = _cols(table, {"columns": cols}, 2, f"{where}.time.map")
         tab = np.column_stack([tab[:, 0], tab[:, 1] * _unit(TIME_UNITS, m.get("unit", "s"), f"{where}.time.map")])
         t = time_tags.map_counter(_cols(data, f, 1, f"{where}.time"), tab, f"{where}.time.map")
-    off = f.get("offset_s", 0.0)
-    if not _is_num(off) or not math.isfinite(off):
-        raise ConfigError(f"{where}.time.offset_s: expected a number (s), got {off!r}")
-    return t + float(off)
+    return t + number(f"{where}.time.offset_s", f.get("offset_s", 0.0))
 
 
 def _time(data, spec, where, base_dir=None) -> np.ndarray:

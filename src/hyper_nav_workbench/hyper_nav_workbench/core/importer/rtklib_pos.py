@@ -109,7 +109,7 @@ def fix_table(spec: dict, base_dir, where: str = "gnss"):
     """A ``.pos`` file as the GNSS input of an import (module docstring):
     (``columns.FixTable`` in ENU, continuous GPST, the sentence stating what
     was kept and weighted)."""
-    from hyper_nav_filter.core.params import ConfigError
+    from hyper_nav_filter.core.params import ConfigError, number
 
     from hyper_nav_workbench.core.importer.columns import FixTable, check_fields
     check_fields(spec, PRESET_FIELDS, where)
@@ -134,15 +134,10 @@ def fix_table(spec: dict, base_dir, where: str = "gnss"):
     scale = {int(q): float(v) for q, v in scale.items()}
     floors = {}
     for name in ("sigma_floor_m", "vel_sigma_floor_mps"):
-        v = spec.get(name, 0.0)
-        if not _num(v) or v < 0:
-            raise ConfigError(f"{where}.{name}: expected a number >= 0, got {v!r}")
-        floors[name] = float(v)
+        floors[name] = number(f"{where}.{name}", spec.get(name, 0.0), 0.0)
     t_spec = spec.get("time") or {}
     check_fields(t_spec, {"offset_s"}, f"{where}.time")
-    off = t_spec.get("offset_s", 0.0)
-    if not _num(off):
-        raise ConfigError(f"{where}.time.offset_s: expected a number (s), got {off!r}")
+    off = number(f"{where}.time.offset_s", t_spec.get("offset_s", 0.0))
     sel = pos.select(np.isin(pos.quality, keep))
     if not len(sel.t_gpst_s):
         raise ConfigError(f"{where}.quality: no epoch of Q {keep} in {path} (present: {present})")
