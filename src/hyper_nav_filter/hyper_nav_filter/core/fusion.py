@@ -561,8 +561,9 @@ class FusionEngine:
             self._revision += 1
         for key in events:
             t_m, ev = key[0], key[-1]
-            if ev.kind == "model_update":
-                self.kf.apply_model_update(ev.fields)
+            apply_to = getattr(ev, "apply_to", None)          # an event that changes the model (ModelUpdate)
+            if apply_to is not None:
+                apply_to(self.kf)
             else:
                 if ep.ctx is None:
                     ep.ctx = ModelContext.at(self.kf, ep.imu, self.cfg.antenna_lever_arm_b_m)

@@ -26,6 +26,11 @@ class ModelUpdate:
     def fields(self) -> dict:
         return dict(self.values)
 
+    def apply_to(self, kf) -> None:
+        """An event that changes the filter's model, not a measurement: the
+        engine applies it in time order with the measurements (``FusionEngine._apply``)."""
+        kf.apply_model_update(self.fields)
+
     @classmethod
     def from_arrays(cls, t_s: float, model: str, names, values, origin: str = "", note: str = "") -> "ModelUpdate":
         """From the parallel arrays of hyper_nav_msgs/ModelUpdate: each name is

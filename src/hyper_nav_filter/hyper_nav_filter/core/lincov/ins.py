@@ -205,7 +205,7 @@ class InsLinCov:
                     old = self.markov_G.get(g)
                     self.markov_G[g] = (G, psd) if old is None else (np.hstack([old[0], G]),
                                                                      np.concatenate([old[1], psd]))
-            elif s.kind == "white" and s.sensor in ("gyro", "accel"):
+            elif s.enters == "process_noise" and s.sensor in ("gyro", "accel"):
                 rows, sign = (NAV["att"], -1.0) if s.sensor == "gyro" else (NAV["vel"], 1.0)
                 old = self.white.get(g, [])
                 self.white[g] = old + [(rows, sign, s.sigma**2)]
@@ -278,7 +278,7 @@ class InsLinCov:
         t = float(ref.t_s[k])
         nav = ref.nav(k)
         T = self._T(k)
-        lev_src = [s for s in self.truth.sources if s.kind == "lever_arm"]
+        lev_src = [s for s in self.truth.sources if s.enters == "measurement"]
         for m in self.meas:
             if not m.due(t):
                 continue

@@ -47,21 +47,24 @@ def _misalignment_map(x) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SourceKind:
-    """One kind of truth source as data: its augmented states and, for an IMU
-    output term, ``output_map(x)`` (3 x size: the output error per unit of
-    its states at the sensor's input x, body rate or specific force; the
-    table of the module docstring). None: not an IMU output term (white
-    noise enters as process noise; the lever arm through the measurements)."""
+    """One kind of truth source as data: its augmented states, its sigma
+    elements, where it enters (``imu``: an IMU output term, with
+    ``output_map(x)``, 3 x size: the output error per unit of its states at
+    the sensor's input x, body rate or specific force, the table of the
+    module docstring; ``process_noise``: a white noise on the IMU output, no
+    states; ``measurement``: seen by the measurement models only)."""
     size: int
+    enters: str
     output_map: object = None
+    n_sigma: int | None = None       # sigma elements (default: one per state)
 
 
 KINDS = {
-    "bias": SourceKind(3, lambda x: np.eye(3)),
-    "scale": SourceKind(3, np.diag),
-    "misalignment": SourceKind(6, _misalignment_map),
-    "white": SourceKind(0),
-    "lever_arm": SourceKind(3),
+    "bias": SourceKind(3, "imu", lambda x: np.eye(3)),
+    "scale": SourceKind(3, "imu", np.diag),
+    "misalignment": SourceKind(6, "imu", _misalignment_map),
+    "white": SourceKind(0, "process_noise", n_sigma=3),
+    "lever_arm": SourceKind(3, "measurement"),
 }
 SIZES = {k: v.size for k, v in KINDS.items()}
 
@@ -82,7 +85,8 @@ class TruthSource:
             raise ValueError(f"truth source {self.name!r}: kind {self.kind!r} not in {sorted(SIZES)}")
         if self.sensor not in SENSORS:
             raise ValueError(f"truth source {self.name!r}: sensor {self.sensor!r} not in {SENSORS}")
-        k = 3 if self.kind == "white" else SIZES[self.kind]
+        kind = KINDS[self.kind]
+        k = kind.size if kind.n_sigma is None else kind.n_sigma
         sig = np.broadcast_to(np.asarray(self.sigma, float), (k,)).copy()
         if np.any(~np.isfinite(sig)) or np.any(sig < 0):
             raise ValueError(f"truth source {self.name!r}: sigma must be finite and >= 0, got {sig}")
@@ -95,6 +99,11 @@ class TruthSource:
     @property
     def size(self) -> int:
         return SIZES[self.kind]
+
+    @property
+    def enters(self) -> str:
+        """Where the source enters the errors (``SourceKind.enters``)."""
+        return KINDS[self.kind].enters
 
     @property
     def markov(self) -> bool:
@@ -136,7 +145,7 @@ class TruthModel:
         return [s for s in self.sources if s.size > 0]
 
     def white(self, sensor: str):
-        return [s for s in self.sources if s.kind == "white" and s.sensor == sensor]
+        return [s for s in self.sources if s.enters == "process_noise" and s.sensor == sensor]
 
     def A(self) -> np.ndarray:
         """Self-dynamics of the source states (p x p): -1/tau per Markov element."""
@@ -159,9 +168,9 @@ class TruthModel:
         unit of the source states at body rate w and specific force f."""
         Eg, Ea = np.zeros((3, self.dim)), np.zeros((3, self.dim))
         for s in self.state_sources():
-            output_map = KINDS[s.kind].output_map
-            if s.sensor not in ("gyro", "accel") or output_map is None:
+            if s.enters != "imu" or s.sensor not in ("gyro", "accel"):
                 continue
+            output_map = KINDS[s.kind].output_map
             E = Eg if s.sensor == "gyro" else Ea
             E[:, self.sl(s.name)] = output_map(np.asarray(omega_b_radps if s.sensor == "gyro" else f_b_mps2, float))
         return Eg, Ea
