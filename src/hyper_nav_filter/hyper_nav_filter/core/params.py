@@ -241,6 +241,14 @@ def nonneg(name, type_, default, description, **kw) -> ParamSpec:
     return ParamSpec(name, type_, default, description, lo=0.0, **kw)
 
 
+def kind_of(default) -> str | None:
+    """The parameter type of a field declared by its default (a dataclass field's: bool, int, float, str,
+    tuple of floats); None for another."""
+    return (BOOL if isinstance(default, bool) else INT if isinstance(default, int) else
+            FLOAT if isinstance(default, float) else STR if isinstance(default, str) else
+            FLOATS if isinstance(default, tuple) else None)
+
+
 def checked(name: str, value, type_: str, *, error: type[Exception] = ConfigError, **rules):
     """One value of a block its own parser reads key by key (the flight, the
     GNSS receiver, the world, the elastic lever arm, the virtual receiver, the

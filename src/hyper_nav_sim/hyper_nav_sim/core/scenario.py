@@ -36,7 +36,7 @@ from hyper_nav_filter.sources import DEFAULT_TABLE, make_sources, parse_sources
 
 from hyper_nav_filter import aiding_nodes
 from hyper_nav_filter.core.params import (
-    BOOL, FLOAT, FLOATS, INT, REQUIRED, STR, ParamSpec, number, suggestion, unknown_field,
+    BOOL, FLOAT, FLOATS, INT, REQUIRED, STR, ParamSpec, nonneg, number, positive, suggestion, unknown_field,
 )
 from .. import sensors
 from .trajectory import MANEUVER_KINDS, Maneuver, Start, Trajectory
@@ -62,14 +62,6 @@ def _v(name, n, default, description, **kw) -> ParamSpec:
                      broadcast=False, **kw)
 
 
-def _pos(name, default, description) -> ParamSpec:
-    return _f(name, default, description, lo=0.0, lo_open=True)
-
-
-def _nonneg(name, default, description) -> ParamSpec:
-    return _f(name, default, description, lo=0.0)
-
-
 def _sigma(name, description) -> ParamSpec:
     return _v(name, 3, REQUIRED, description, lo=0.0, lo_open=True, quantity="a standard deviation")
 
@@ -81,7 +73,7 @@ SCENARIO_PARAMS = (
     ParamSpec("name", STR, REQUIRED, "the scenario's name (bags, reports)"),
     ParamSpec("description", STR, "", "one line for people"),
     ParamSpec("seed", INT, REQUIRED, "seed of every random stream (per sensor: Scenario.rng)"),
-    _pos("duration_s", REQUIRED, "flight time simulated [s]"),
+    positive("duration_s", FLOAT, REQUIRED, "flight time simulated [s]"),
     _f("start.lat_deg", REQUIRED, "geodetic latitude at t = 0 [deg]",
        rule=lambda v: None if -90.0 < v < 90.0 else f"must be within (-90, 90), got {v!r}"),
     _f("start.lon_deg", REQUIRED, "longitude at t = 0 [deg]",
@@ -90,52 +82,52 @@ SCENARIO_PARAMS = (
     _v("start.vel_enu_mps", 3, REQUIRED, "velocity at t = 0, ENU [m/s]"),
     _f("start.angle_of_attack_deg", 0.0, "angle of attack of the kinematic flight [deg]"),
     _f("start.roll_deg", 0.0, "roll at t = 0 [deg]"),
-    _pos("imu.rate_hz", REQUIRED, "IMU sample rate [Hz]"),
+    positive("imu.rate_hz", FLOAT, REQUIRED, "IMU sample rate [Hz]"),
     _v("imu.gyro_bias_deg_per_hr", 3, REQUIRED, "gyro bias per axis [deg/h]"),
-    _nonneg("imu.gyro_arw_deg_per_sqrt_hr", REQUIRED, "gyro angle random walk [deg/sqrt(h)]"),
+    nonneg("imu.gyro_arw_deg_per_sqrt_hr", FLOAT, REQUIRED, "gyro angle random walk [deg/sqrt(h)]"),
     _v("imu.accel_bias_ug", 3, REQUIRED, "accelerometer bias per axis [ug]"),
-    _nonneg("imu.accel_vrw_ug_per_sqrt_hz", REQUIRED, "accelerometer velocity random walk [ug/sqrt(Hz)]"),
+    nonneg("imu.accel_vrw_ug_per_sqrt_hz", FLOAT, REQUIRED, "accelerometer velocity random walk [ug/sqrt(Hz)]"),
     # the IMU's own axes in base_link (FLU) as a unit quaternion (x, y, z, w): the mounting that
     # import_data applied at the edge (it prints this); its frame on /tf_static only, the filter
     # works in the body frame
     _v("imu.mounting_b_xyzw", 4, (0.0, 0.0, 0.0, 1.0), "IMU axes in base_link, quaternion (x, y, z, w)",
        rule=_unit_quaternion),
-    _pos("gnss.rate_hz", REQUIRED, "GNSS fix rate [Hz]"),
+    positive("gnss.rate_hz", FLOAT, REQUIRED, "GNSS fix rate [Hz]"),
     _sigma("gnss.pos_sigma_enu_m", "fix position noise, ENU [m]"),
     _sigma("gnss.vel_sigma_enu_mps", "fix velocity noise, ENU [m/s]"),
-    _nonneg("gnss.latency_s", 0.0, "fix latency: stamp to release [s]"),
+    nonneg("gnss.latency_s", FLOAT, 0.0, "fix latency: stamp to release [s]"),
     _v("gnss.antenna_lever_arm_b_m", 3, (0.0, 0.0, 0.0), "antenna in base_link [m]"),
-    _pos("magnetometer.rate_hz", REQUIRED, "magnetometer sample rate [Hz]"),
-    _nonneg("magnetometer.noise_nT", REQUIRED, "magnetometer white noise per axis [nT]"),
+    positive("magnetometer.rate_hz", FLOAT, REQUIRED, "magnetometer sample rate [Hz]"),
+    nonneg("magnetometer.noise_nT", FLOAT, REQUIRED, "magnetometer white noise per axis [nT]"),
     _f("magnetometer.epoch_decimal_year", REQUIRED, "date of the flight for the World Magnetic Model [year]"),
     _v("magnetometer.lever_arm_b_m", 3, (0.0, 0.0, 0.0), "magnetometer in base_link [m] (/tf_static only)"),
-    _pos("graph.real_time_factor", 3.0, "flight seconds per wall second"),
-    _pos("graph.clock_rate_hz", 50.0, "/clock messages per flight second"),
+    positive("graph.real_time_factor", FLOAT, 3.0, "flight seconds per wall second"),
+    positive("graph.clock_rate_hz", FLOAT, 50.0, "/clock messages per flight second"),
     # at most this many /clock messages per wall second: at high real-time factors the
     # sim-time step grows to real_time_factor / clock_max_wall_hz (every node takes
     # each /clock in Python; 1000 per second into 7 nodes is a core of 2)
-    _pos("graph.clock_max_wall_hz", 100.0, "at most this many /clock messages per wall second"),
+    positive("graph.clock_max_wall_hz", FLOAT, 100.0, "at most this many /clock messages per wall second"),
     # the clock waits for the nodes' allowances (hyper_nav_filter.clock_gate): a loaded machine slows the
     # flight down instead of losing or delaying data; false = paced by the wall clock alone
     ParamSpec("graph.clock_gate", BOOL, True, "the clock waits for the nodes' allowances"),
-    _pos("graph.truth_rate_hz", 50.0, "truth messages per flight second"),
+    positive("graph.truth_rate_hz", FLOAT, 50.0, "truth messages per flight second"),
     ParamSpec("graph.qos_depth", INT, 2000, "history depth of every topic", lo=0, lo_open=True),
     # wall-clock period of every node's /diagnostics status (its heartbeat)
-    _pos("graph.diagnostics_period_s", 1.0, "wall period of every node's /diagnostics status [s]"),
+    positive("graph.diagnostics_period_s", FLOAT, 1.0, "wall period of every node's /diagnostics status [s]"),
     # liveness monitor (nodes/monitor.py): a node silent for heartbeat_timeout_s
     # (wall) is reported dead, one never heard of within startup_timeout_s (wall)
     # as not started; a stream that does not advance for stream_timeout_s of sim
     # time (at least 3 periods of its nominal rate) is reported missing
-    _pos("monitor.heartbeat_timeout_s", 5.0, "a node silent this long (wall) is reported dead [s]"),
-    _pos("monitor.startup_timeout_s", 60.0, "a node not heard of this long (wall) is reported not started [s]"),
-    _pos("monitor.stream_timeout_s", 3.0, "a stream that does not advance this long (flight) is missing [s]"),
+    positive("monitor.heartbeat_timeout_s", FLOAT, 5.0, "a node silent this long (wall) is reported dead [s]"),
+    positive("monitor.startup_timeout_s", FLOAT, 60.0, "a node not heard of this long (wall) is reported not started [s]"),
+    positive("monitor.stream_timeout_s", FLOAT, 3.0, "a stream that does not advance this long (flight) is missing [s]"),
     _v("filter.initial_error.pos_enu_m", 3, REQUIRED, "error of the filter's initial position, ENU [m]"),
     _v("filter.initial_error.vel_enu_mps", 3, REQUIRED, "error of the filter's initial velocity, ENU [m/s]"),
     _v("filter.initial_error.att_enu_arcmin", 3, REQUIRED, "error of the filter's initial attitude [arcmin]"),
-    _nonneg("report.skip_s", 30.0, "flight time left out of the report's RMS [s]"),
-    _pos("report.max_pos_rms_m", None, "verdict limit on the position RMS [m] (none: no limit)"),
-    _pos("report.max_vel_rms_mps", None, "verdict limit on the velocity RMS [m/s] (none: no limit)"),
-    _pos("report.max_att_rms_deg", None, "verdict limit on the attitude RMS [deg] (none: no limit)"),
+    nonneg("report.skip_s", FLOAT, 30.0, "flight time left out of the report's RMS [s]"),
+    positive("report.max_pos_rms_m", FLOAT, None, "verdict limit on the position RMS [m] (none: no limit)"),
+    positive("report.max_vel_rms_mps", FLOAT, None, "verdict limit on the velocity RMS [m/s] (none: no limit)"),
+    positive("report.max_att_rms_deg", FLOAT, None, "verdict limit on the attitude RMS [deg] (none: no limit)"),
     ParamSpec("report.reference_source", STR, "", "where the reference figures come from"),
     _f("report.reference_pos_m", None, "reference position RMS [m] (printed beside ours)"),
     _f("report.reference_vel_mps", None, "reference velocity RMS [m/s]"),

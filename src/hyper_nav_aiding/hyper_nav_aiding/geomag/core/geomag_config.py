@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 
 from hyper_nav_aiding.geomag.core.geomag_map import MapError, MapSpec
-from hyper_nav_filter.core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec
+from hyper_nav_filter.core.params import FLOATS, ConfigError, ParamSpec, kind_of
 
 ALGORITHMS = ("MAGCOM", "ICCP", "SIMAN", "EKF")
 FIX_COVARIANCES = ("isotropic", "geometry")
@@ -195,9 +195,7 @@ def _check(name: str, f, v):
     """One leaf value checked by the ParamSpec its field declares (``hyper_nav_filter.core.params``, the
     project's one validation rule): the type of its default, its range as an interval, its choices."""
     md, default = f.metadata, f.default
-    kind = (BOOL if isinstance(default, bool) else INT if isinstance(default, int) else
-            FLOAT if isinstance(default, float) else STR if isinstance(default, str) else
-            FLOATS if isinstance(default, tuple) else None)
+    kind = kind_of(default)
     if kind is None:
         raise GeomagConfigError(f"{name}: unsupported field type")  # pragma: no cover
     spec = ParamSpec(name, kind, default, md.get("desc", ""), lo=md.get("min"), hi=md.get("max"),

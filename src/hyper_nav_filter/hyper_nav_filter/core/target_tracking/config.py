@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from hyper_nav_filter.core.params import FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, number, unknown_field
+from hyper_nav_filter.core.params import FLOAT, ConfigError, ParamSpec, kind_of, number, unknown_field
 from hyper_nav_filter.core.target_tracking import glide_model as gm
 
 FILTER_TYPES = ("EKF", "AEKF", "LEKF", "IMM")
@@ -179,8 +179,7 @@ def _model_from_dict(d, prefix: str) -> gm.GlideModel:
 def _check(name: str, default, value, **rng):
     """``value`` checked by a ParamSpec of the field's type (the type of its
     default: str, tuple of floats, int, float) and range ``rng``."""
-    kind = (STR if isinstance(default, str) else FLOATS if isinstance(default, tuple) else
-            INT if isinstance(default, int) and not isinstance(default, bool) else FLOAT)
+    kind = kind_of(default) or FLOAT
     try:
         return ParamSpec(name, kind, default, "", **rng).check(value)
     except ConfigError as exc:
