@@ -54,8 +54,9 @@ class ParamSpec:
     ``choices`` restricts strings. ``updatable``: a time-stamped model update
     (``core.model_update``) may change it while the filter runs.
     ``interval``: a range error states the interval ("expected a number in
-    [0, 1e+06]", "expected an integer in [2, 1000]") instead of the bound crossed; ``quantity`` names what the value is in a
-    range error ("a standard deviation must be > 0"); ``rule``: a condition
+    [0, 1e+06]", "expected an integer in [2, 1000]") instead of the bound
+    crossed; ``quantity`` names what the value is in a range error ("a
+    standard deviation must be > 0"); ``rule``: a condition
     on the whole checked value that no range says (a unit quaternion),
     returning the error text or None. ``default`` :data:`REQUIRED`: a file
     must give the field (``required``). ``broadcast=False``: a vector

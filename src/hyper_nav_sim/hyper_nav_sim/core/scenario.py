@@ -2,7 +2,8 @@
 
 ``load_scenario(name_or_path)`` reads a file (a bare name is looked up in the
 installed ``share/hyper_nav_sim/scenarios`` or the source tree), checks every
-field against its declarations below (``SCENARIO_PARAMS``, one ``ParamSpec`` each) and raises ``ScenarioError`` naming the bad
+field against its declarations below (``SCENARIO_PARAMS``, one ``ParamSpec``
+each) and raises ``ScenarioError`` naming the bad
 field (``imu.rate_hz: expected a number, got 'fifty'``).
 
 Validation rules (one place, applied to files and to ``--set`` overrides):
@@ -119,8 +120,10 @@ SCENARIO_PARAMS = (
     # as not started; a stream that does not advance for stream_timeout_s of sim
     # time (at least 3 periods of its nominal rate) is reported missing
     positive("monitor.heartbeat_timeout_s", FLOAT, 5.0, "a node silent this long (wall) is reported dead [s]"),
-    positive("monitor.startup_timeout_s", FLOAT, 60.0, "a node not heard of this long (wall) is reported not started [s]"),
-    positive("monitor.stream_timeout_s", FLOAT, 3.0, "a stream that does not advance this long (flight) is missing [s]"),
+    positive("monitor.startup_timeout_s", FLOAT, 60.0,
+             "a node not heard of this long (wall) is reported not started [s]"),
+    positive("monitor.stream_timeout_s", FLOAT, 3.0,
+             "a stream that does not advance this long (flight) is missing [s]"),
     _v("filter.initial_error.pos_enu_m", 3, REQUIRED, "error of the filter's initial position, ENU [m]"),
     _v("filter.initial_error.vel_enu_mps", 3, REQUIRED, "error of the filter's initial velocity, ENU [m/s]"),
     _v("filter.initial_error.att_enu_arcmin", 3, REQUIRED, "error of the filter's initial attitude [arcmin]"),
@@ -424,7 +427,8 @@ def validate(data, source: str = "<dict>") -> dict:
             value = spec.check(value)
         except ConfigError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
-        _set(data, spec.name, list(value) if isinstance(value, tuple) else value)   # lists: the file can be written back
+        # lists: the file can be written back
+        _set(data, spec.name, list(value) if isinstance(value, tuple) else value)
     try:
         from hyper_nav_filter.core.wmm import WmmDateError, release_for
         release_for(data["magnetometer"]["epoch_decimal_year"])
