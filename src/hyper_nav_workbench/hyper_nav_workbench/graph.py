@@ -364,7 +364,11 @@ class Graph:
             if node.output_wait_parameter:
                 p[node.output_wait_parameter] = self._subscribers(node.outputs(self.scenario.data.get(node.block) or {}))
         elif name == "guidance":
-            p = {"scenario": sc_path, "diagnostics_period_s": diag}
+            from hyper_nav_sim.core.guidance_config import GuidanceConfig
+            cmd = GuidanceConfig.from_config(self.scenario.data["guidance"]).command_topic.lstrip("/")
+            # its commands' subscribers: the truth node, then the recorder and the user's own
+            p = {"scenario": sc_path, "diagnostics_period_s": diag,
+                 "min_output_subscribers": 1 + self._subscribers([cmd])}
         elif name == "recorder":
             p = {"output": str(self.record), "qos_depth": int(self.scenario["graph.qos_depth"]),
                  "use_sim_time": True, "diagnostics_period_s": diag}

@@ -24,7 +24,7 @@ from rclpy.node import Node
 
 from hyper_nav_filter.clock_gate import ClockAllowance, InputsReady
 from hyper_nav_filter.conversions import s_to_stamp_fields, stamp_to_s
-from hyper_nav_filter.ros_util import publisher_qos, run_node
+from hyper_nav_filter.ros_util import all_matched, publisher_qos, run_node
 from hyper_nav_sim.core.boost_glide_config import parse_flight
 from hyper_nav_sim.core.guidance_config import GuidanceConfig
 from hyper_nav_sim.core.scenario import load_scenario
@@ -45,6 +45,9 @@ class GuidanceNode(Node):
         self.declare_parameter("nav_topic", cfg.nav_topic)
         self.declare_parameter("nav_type", cfg.nav_type)
         self.declare_parameter("diagnostics_period_s", float(sc["graph.diagnostics_period_s"]))
+        # the command topic's subscribers (the truth node, a recorder, a test's collector) matched from this
+        # side before the clock runs: a reliable volatile writer drops nothing to a reader it has matched
+        self.declare_parameter("min_output_subscribers", 0)
         for k in ("lat_deg", "lon_deg", "alt_m"):
             self.declare_parameter(f"origin.{k}", float("nan"))
         nav_type = self.get_parameter("nav_type").value
@@ -65,9 +68,13 @@ class GuidanceNode(Node):
             self.sub = self.create_subscription(NavState, topic, self._on_navstate, qos)
         # the time source waits until this subscription has matched its publishers from this side
         # (a reliable volatile reader drops what was sent before: the first states, and the loop would
-        # wait command_timeout_s for their commands); then the allowance is unlimited
+        # wait command_timeout_s for their commands), and until the command publisher has matched its
+        # subscribers (a collector matched late lost the first 18 s of commands in one CI pass); then
+        # the allowance is unlimited
+        inputs = InputsReady(self, lambda: [self.sub], required=[topic])
+        n_out = int(self.get_parameter("min_output_subscribers").value)
         self.allowance = ClockAllowance(self, source=lambda: math.inf,
-                                        ready=InputsReady(self, lambda: [self.sub], required=[topic]))
+                                        ready=lambda: inputs() and all_matched([self.pub], n_out))
         self.counts = {"received": 0, "commands": 0, "off_grid": 0, "rejected not_finite": 0,
                        "rejected out_of_order": 0, "before_start": 0}
         self.last_t = -math.inf
