@@ -1,5 +1,6 @@
 """Latency of the current-time state over DDS (issue 35): IMU message
-publication -> current-time ``nav/state`` received, on this machine.
+publication -> current-time ``nav/state`` published (and received), on
+this machine.
 
 For each case (loosely coupled: the default scenario; tightly coupled:
 seed004_tight; IMU at 200 Hz and 1 kHz) a short run of the simulated graph
@@ -12,8 +13,11 @@ messages; reliable QoS), stamping the wall time just before each IMU
 pairs each state with its IMU sample by stamp. Printed: median, p99 and max
 latency, states received of IMU samples published (nothing may be
 dropped), and the fusion process's CPU share over the run (utime + stime of
-/proc/<pid>/stat over wall time). Latency here includes the DDS delivery to
-the subscriber (two hops: publisher -> node, node -> subscriber).
+/proc/<pid>/stat over wall time). The latency is to the state's publication:
+the DDS writer's source timestamp of each ``nav/state`` sample (rmw message
+info, the system clock of this machine), so it holds one DDS hop (this
+process -> the fusion node) and the node's work; the latency to the
+state's receipt here (two hops) is printed beside it.
 
 Shared machine: 2 cores, other engineers' tests running; report what it
 says about that.
@@ -64,7 +68,10 @@ def cpu_s(pid: int) -> float:
     return total
 
 
-def measure(bag: pathlib.Path, domain: int, executor: str = "single") -> dict:
+RT_SETTINGS = {"realtime.priority": 80, "realtime.lock_memory": True, "realtime.cpu_dma_latency_us": 0}
+
+
+def measure(bag: pathlib.Path, domain: int, executor: str = "single", realtime: bool = False) -> dict:
     import rclpy
     from rclpy.serialization import deserialize_message
 
@@ -87,6 +94,8 @@ def measure(bag: pathlib.Path, domain: int, executor: str = "single") -> dict:
     # the node's parameters for every source input are reliable (the bench's publishers are)
     params.update({k: "reliable" for k in params if k.endswith(".qos")})
     params["executor"] = executor
+    if realtime:
+        params.update(RT_SETTINGS)
     pfile = pathlib.Path(tempfile.mkdtemp()) / "fusion.yaml"
     pfile.write_text(yaml.dump({"fusion": {"ros__parameters": params}}, Dumper=_NoAliasDumper))
     recs = [(r.topic, r.msgtype, r.raw) for r in read_bag(bag) if r.topic in inputs]
@@ -105,10 +114,11 @@ def measure(bag: pathlib.Path, domain: int, executor: str = "single") -> dict:
             for t in inputs}
     got, lock = {}, threading.Lock()
 
-    def on_state(m):
-        t_recv = time.perf_counter()
+    def on_state(m, info):
+        t_recv = time.time_ns()
         with lock:
-            got[(m.header.stamp.sec, m.header.stamp.nanosec)] = t_recv
+            # the state's publication: the DDS writer's source timestamp (the system clock, as time.time_ns)
+            got[(m.header.stamp.sec, m.header.stamp.nanosec)] = (info["source_timestamp"], t_recv)
     node.create_subscription(NavState, "nav/state", on_state, publisher_qos(20000))
     from rclpy.executors import SingleThreadedExecutor
     ex = SingleThreadedExecutor(context=ctx)
@@ -135,7 +145,7 @@ def measure(bag: pathlib.Path, domain: int, executor: str = "single") -> dict:
                 if wait > 0:
                     time.sleep(wait)
             if topic == imu_topic:
-                sent[(m.header.stamp.sec, m.header.stamp.nanosec)] = time.perf_counter()
+                sent[(m.header.stamp.sec, m.header.stamp.nanosec)] = time.time_ns()
             pubs[topic].publish(m)
         time.sleep(3.0)
         wall, cpu = time.perf_counter() - w0, cpu_s(proc.pid) - cpu0
@@ -150,13 +160,16 @@ def measure(bag: pathlib.Path, domain: int, executor: str = "single") -> dict:
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
     with lock:
-        lat = np.array([got[k] - t for k, t in sent.items() if k in got]) * 1e3
+        pairs = np.array([(got[k][0] - t, got[k][1] - t) for k, t in sent.items() if k in got], float) * 1e-6
+    lat, lat_recv = (pairs[:, 0], pairs[:, 1]) if len(pairs) else (np.array([]), np.array([]))
     if os.environ.get("LATENCY_DEBUG"):
         print(log[-4000:])
     if not len(lat):
         raise RuntimeError(f"no nav/state received; fusion log:\n{log[-3000:]}")
     return {"imu_published": len(sent), "states_received": int(sum(k in got for k in sent)),
             "median_ms": float(np.median(lat)), "p99_ms": float(np.percentile(lat, 99)), "max_ms": float(lat.max()),
+            "received": {"median_ms": float(np.median(lat_recv)), "p99_ms": float(np.percentile(lat_recv, 99)),
+                         "max_ms": float(lat_recv.max())},
             "fusion_cpu_share": cpu / wall, "scenario": sc.name, "imu_hz": float(sc["imu.rate_hz"])}
 
 
@@ -222,6 +235,10 @@ def main(argv=None):
     ap.add_argument("--executors", default="single",
                     help="the fusion node's executor(s), comma-separated, each measured on the same recording: "
                          "single, events")
+    ap.add_argument("--realtime", action="store_true",
+                    help="also measure each executor with the fusion node's real-time settings (hyper_nav_filter."
+                         "realtime): SCHED_FIFO 80 for its threads, memory locked, /dev/cpu_dma_latency held at 0 "
+                         "(needs root or CAP_SYS_NICE; the PM QoS request holds the whole machine's cores awake)")
     ap.add_argument("--out", default="results/current_latency.json")
     a = ap.parse_args(argv)
     results = {}
@@ -232,15 +249,20 @@ def main(argv=None):
             ip = in_process(bag)
             print(f"{case:10s} in process (router + engine + predictor + message conversion, no DDS): median "
                   f"{ip['median_ms']:.3f} ms, p99 {ip['p99_ms']:.3f} ms, max {ip['max_ms']:.3f} ms", flush=True)
-            for ex in a.executors.split(","):
-                r = measure(bag, a.domain, ex)
+            for ex, rt in [(ex, rt) for ex in a.executors.split(",") for rt in ((False, True) if a.realtime
+                                                                               else (False,))]:
+                r = measure(bag, a.domain, ex, rt)
                 r["in_process"] = ip
                 r["executor"] = ex
+                r["realtime"] = RT_SETTINGS if rt else None
                 with open("/proc/loadavg") as fh:
                     r["loadavg_1min"] = float(fh.read().split()[0])
-                results[case if ex == "single" else f"{case}_{ex}"] = r
-                print(f"{case:10s} {scenario} IMU {hz:g} Hz, executor {ex}: latency median {r['median_ms']:.3f} ms, "
-                      f"p99 {r['p99_ms']:.3f} ms, max {r['max_ms']:.3f} ms; states {r['states_received']} of "
+                results[(case if ex == "single" else f"{case}_{ex}") + ("_rt" if rt else "")] = r
+                rv = r["received"]
+                print(f"{case:10s} {scenario} IMU {hz:g} Hz, executor {ex}{' real-time' if rt else ''}: IMU "
+                      f"published -> state published: median {r['median_ms']:.3f} ms, p99 {r['p99_ms']:.3f} ms, max "
+                      f"{r['max_ms']:.3f} ms (-> received here: {rv['median_ms']:.3f} / {rv['p99_ms']:.3f} / "
+                      f"{rv['max_ms']:.3f} ms); states {r['states_received']} of "
                       f"{r['imu_published']} IMU samples; fusion node CPU {100 * r['fusion_cpu_share']:.0f} % of one "
                       f"core (machine load average {r['loadavg_1min']:.1f} on 2 cores)", flush=True)
     out = pathlib.Path(a.out)

@@ -86,6 +86,9 @@ def test_no_parameters_starts_and_waits_for_data():
     (["-p", "sources.imu.type:=imuu"], "sources.imu.type"),
     (["-p", "sources.gnss_fix.delay_s:=2.0"], "sources.gnss_fix.delay_s"),
     (["-p", "executor:=event"], "executor"),
+    (["-p", "realtime.priority:=120"], "realtime.priority"),
+    (["-p", "qos.depth:=0"], "qos.depth"),
+    (["-p", "qos.depth:=many"], "qos.depth"),
 ])
 def test_a_wrong_parameter_is_one_line_naming_it(args, name):
     proc = _start(["--ros-args", "--params-file", str(PARAMS / "loosely_coupled.yaml"), *args], isolated_domain_id())
@@ -99,15 +102,21 @@ def test_a_wrong_parameter_is_one_line_naming_it(args, name):
     assert len(lines) == 1 and name in lines[0], out
 
 
-@pytest.mark.parametrize("executor", ["single", "events"])
-def test_params_file_node_gives_one_current_time_state_per_imu_sample(executor):
-    """In either executor (``-p executor:=events``: rclpy's EventsExecutor)."""
+REALTIME = ["-p", "realtime.priority:=10", "-p", "realtime.lock_memory:=true", "-p", "realtime.cpu_dma_latency_us:=0"]
+
+
+@pytest.mark.parametrize("executor, extra", [("single", []), ("events", []), ("events", REALTIME)],
+                         ids=["single", "events", "events-realtime"])
+def test_params_file_node_gives_one_current_time_state_per_imu_sample(executor, extra):
+    """In either executor (``-p executor:=events``: rclpy's EventsExecutor),
+    and with a rig's real-time settings (``realtime.*``: SCHED_FIFO for every
+    thread of the node, memory locked, the PM QoS request held)."""
     domain = isolated_domain_id()
     t0 = time.time()
     # (the file's IMU QoS is sensor_data, best effort, as drivers publish; reliable here: nothing may be lost)
     proc = _start(["--ros-args", "--params-file", str(PARAMS / "loosely_coupled.yaml"), "-p", "sources.imu.qos:=reliable",
                    "-p", f"init.lat_deg:={LAT_DEG}", "-p", f"init.lon_deg:={LON_DEG}", "-p", f"init.alt_m:={ALT_M}",
-                   "-p", f"executor:={executor}"],
+                   "-p", f"executor:={executor}", *extra],
                   domain)
     topics = {"nav/odom": Odometry, "nav/state": NavState, "/tf": TFMessage, "nav/delayed/state": NavState}
     try:
@@ -126,6 +135,9 @@ def test_params_file_node_gives_one_current_time_state_per_imu_sample(executor):
                                                            c.node.count_publishers("nav/odom")):
                     time.sleep(0.2)
                 assert pub_imu.get_subscription_count(), _stop(proc)
+                if extra and os.geteuid() == 0:       # privileged here: applied to every thread of the node
+                    tasks = pathlib.Path(f"/proc/{proc.pid}/task").iterdir()
+                    assert {os.sched_getscheduler(int(t.name)) for t in tasks} == {os.SCHED_FIFO}
                 time.sleep(1.0)
                 g = -earth.gravity_n(np.deg2rad(LAT_DEG), ALT_M)[2]
                 w_ie = earth.omega_ie_n(np.deg2rad(LAT_DEG))

@@ -155,9 +155,10 @@ def declare_params(node, specs, prefix: str = "", where: str = "") -> dict:
     checked and coerced by the same specs ({name: value}). A wrong type or
     value raises ``ConfigError`` naming the parameter."""
     from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+    from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
     from rclpy.parameter import Parameter
 
-    from .core.params import BOOL, FLOAT, FLOATS, INT, STR, STRS
+    from .core.params import BOOL, FLOAT, FLOATS, INT, STR, STRS, ConfigError
 
     ptypes = {FLOAT: Parameter.Type.DOUBLE, INT: Parameter.Type.INTEGER, BOOL: Parameter.Type.BOOL,
               STR: Parameter.Type.STRING, FLOATS: Parameter.Type.DOUBLE_ARRAY, STRS: Parameter.Type.STRING_ARRAY}
@@ -170,11 +171,16 @@ def declare_params(node, specs, prefix: str = "", where: str = "") -> dict:
         elif s.type == INT and s.lo is not None and s.hi is not None:
             d.integer_range = [IntegerRange(from_value=int(s.lo), to_value=int(s.hi), step=0)]
         default = s.ros_default()
-        if isinstance(default, list) and not default:       # rclpy cannot infer the type of []
-            node.declare_parameter(prefix + s.name, ptypes[s.type], d)
-            value = node.get_parameter_or(prefix + s.name, Parameter(prefix + s.name, value=[])).value
-        else:
-            value = node.declare_parameter(prefix + s.name, default, d).value
+        try:
+            if isinstance(default, list) and not default:       # rclpy cannot infer the type of []
+                node.declare_parameter(prefix + s.name, ptypes[s.type], d)
+                value = node.get_parameter_or(prefix + s.name, Parameter(prefix + s.name, value=[])).value
+            else:
+                value = node.declare_parameter(prefix + s.name, default, d).value
+        except InvalidParameterValueException as exc:     # the descriptor's range refused it
+            raise ConfigError(f"{where or prefix}{s.name}: expected {s.range_text()} ({exc.args[0]})") from None
+        except InvalidParameterTypeException as exc:
+            raise ConfigError(f"{where or prefix}{s.name}: {exc.args[0]}") from None
         out[s.name] = s.check(value if not isinstance(value, (list, tuple)) or s.type in (FLOATS, STRS)
                               else list(value), where or prefix)
     return out

@@ -52,6 +52,7 @@ from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
 from ..clock_gate import ClockAllowance, InputsIdle, InputsReady
 from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
+from ..realtime import REALTIME_PARAMS, apply as apply_realtime
 from ..output import (OutputFrames, map_pose, navsatfix_fields, navstate_fields, odometry_fields,
                       static_transform_fields, transform_fields)
 from ..ros_util import (EXECUTORS, all_matched, assign_fields, declare_params, diagnostic_array, latched_qos,
@@ -119,8 +120,10 @@ class FusionNode(Node):
         super().__init__("fusion", **node_kw)
         cfg = declare_params(self, ALL_PARAMS, "filter.", "filter.")
         self.cfg = FilterConfig(**cfg)
-        self.p = declare_params(self, NODE_PARAMS)
+        self.p = declare_params(self, NODE_PARAMS + REALTIME_PARAMS)
         p = self.p
+        for problem in apply_realtime({k: v for k, v in p.items() if k.startswith("realtime.")}):
+            self.get_logger().warning(problem)
         self.executor_kind = p["executor"]          # read by ros_util.run_node
         self.table = self._declare_sources()
         self.init = declare_params(self, INIT_PARAMS, "init.")
