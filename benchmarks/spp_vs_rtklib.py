@@ -12,7 +12,10 @@ files as shipped (compressed / Hatanaka: its own decompression included).
 Run: python benchmarks/spp_vs_rtklib.py [OBS NAV...] [--mode dual|single] [--repeat N]
 (default: the shared TLSE 15 min 1 Hz file and its day's navigation file;
 then a 24 h, 30 s multi-GNSS file when ``--day OBS NAV`` is given or one is
-found in the shared folder: none is there today, which it says).
+found in the shared folder; none is there today, which it says, and a
+simulated station's day stands in: 2,880 epochs of G+E+C on the IGS signal
+set from the TLSE day's broadcast records, ``simulated_day``). Each file is
+also run with ``spp --formats pos``: the one output file postpos writes.
 """
 from __future__ import annotations
 
@@ -79,14 +82,19 @@ def compare(obs, navs, mode: str, repeat: int, label: str) -> dict:
         a_cmd = _spp_cmd() + plain + ["--mode", mode, "--systems", sysm, "--out", str(tmp / "ours")]
         b_cmd = [sys.executable, str(HERE / "rtklib_postpos_run.py"), str(tmp / "rtklib.pos"), *plain,
                  "--mode", mode, "--systems", sysm]
-        a, b = [], []
-        for k in range(repeat + 1):                  # the first pair is a warm-up (file cache, bytecode)
-            ra, rb = _timed(a_cmd), _timed(b_cmd)
-            if ra[2] != 0 or rb[2] != 0:
-                raise SystemExit(f"exit codes spp {ra[2]}, postpos {rb[2]}: {a_cmd} / {b_cmd}")
+        # the same command writing only what postpos writes (the .pos): like for like
+        c_cmd = _spp_cmd() + plain + ["--mode", mode, "--systems", sysm, "--formats", "pos",
+                                      "--out", str(tmp / "ours_pos")]
+        a, b, c = [], [], []
+        for k in range(repeat + 1):                  # the first round is a warm-up (file cache, bytecode)
+            ra, rb, rc = _timed(a_cmd), _timed(b_cmd), _timed(c_cmd)
+            if ra[2] != 0 or rb[2] != 0 or rc[2] != 0:
+                raise SystemExit(f"exit codes spp {ra[2]}, postpos {rb[2]}, spp --formats pos {rc[2]}: {a_cmd} / "
+                                 f"{b_cmd}")
             if k:
                 a.append(ra)
                 b.append(rb)
+                c.append(rc)
         shipped = _timed(_spp_cmd() + [str(obs), *map(str, navs), "--mode", mode, "--systems", sysm,
                                        "--out", str(tmp / "shipped")])
         doc = json.loads((tmp / "ours" / "spp.json").read_text())
@@ -107,6 +115,8 @@ def compare(obs, navs, mode: str, repeat: int, label: str) -> dict:
     med = statistics.median
     ratio_cpu = med([x[0] / y[0] for x, y in zip(a, b)])
     ratio_wall = med([x[1] / y[1] for x, y in zip(a, b)])
+    ratio_pos_cpu = med([x[0] / y[0] for x, y in zip(c, b)])
+    ratio_pos_wall = med([x[1] / y[1] for x, y in zip(c, b)])
     cpu = doc.get("cpu_s", {})
     n_ep = doc["epochs"]
     print(f"{label}: {pathlib.Path(obs).name} + {', '.join(pathlib.Path(n).name for n in navs)}; mode {mode} "
@@ -116,6 +126,8 @@ def compare(obs, navs, mode: str, repeat: int, label: str) -> dict:
     print(f"  RTKLIB postpos (start-up + read + solve + write):     CPU {med(x[0] for x in b):7.2f} s, "
           f"wall {med(x[1] for x in b):7.2f} s")
     print(f"  ratio spp / postpos, pair by pair:                    CPU {ratio_cpu:7.2f},   wall {ratio_wall:7.2f}")
+    print(f"  spp --formats pos (the one file postpos writes):      CPU {med(x[0] for x in c):7.2f} s, "
+          f"wall {med(x[1] for x in c):7.2f} s; ratio to postpos CPU {ratio_pos_cpu:.2f}, wall {ratio_pos_wall:.2f}")
     print(f"  spp CPU by phase (last run): start-up {cpu.get('startup', float('nan')):.2f} s, read "
           f"{cpu.get('read', float('nan')):.2f} s, solve {cpu.get('solve', float('nan')):.2f} s "
           f"({1e3 * cpu.get('solve', float('nan')) / max(n_ep, 1):.2f} ms per epoch; wall "
@@ -125,7 +137,29 @@ def compare(obs, navs, mode: str, repeat: int, label: str) -> dict:
     print(f"  accuracy on the {n} common epochs vs the header position (ARP): ours H {so['horizontal_rms_m']:.3f} m, "
           f"V {so['vertical_rms_m']:.3f} m RMS; RTKLIB postpos H {sr['horizontal_rms_m']:.3f} m, "
           f"V {sr['vertical_rms_m']:.3f} m RMS")
-    return {"ratio_cpu": ratio_cpu, "ratio_wall": ratio_wall}
+    return {"ratio_cpu": ratio_cpu, "ratio_wall": ratio_wall, "ratio_pos_only_cpu": ratio_pos_cpu,
+            "ratio_pos_only_wall": ratio_pos_wall, "epochs": n_ep,
+            "spp_cpu_s": med(x[0] for x in a), "postpos_cpu_s": med(x[0] for x in b),
+            "spp_pos_only_cpu_s": med(x[0] for x in c),
+            "accuracy": {"ours": so, "rtklib_postpos": sr, "common_epochs": n}}
+
+
+def simulated_day(folder: pathlib.Path, nav_path) -> tuple[str, list[str]]:
+    """A 24 h, 30 s G+E+C station file simulated from the TLSE day's broadcast
+    records (``hyper_nav_sim.core.gnss.station``: perfect model, IGS signal
+    set, at TLSE's header position), written as RINEX 3.04 into ``folder``."""
+    from hyper_nav_gnss.formats.rinex_nav import read_rinex_nav
+    from hyper_nav_gnss.formats.rinex_obs_write import write_rinex3_obs
+    from hyper_nav_gnss.orbits.ephemeris import calendar_to_system_s
+    from hyper_nav_sim.core.gnss.station import simulate_station
+    xyz = (4627852.5264, 119640.5140, 4372994.8358)              # TLSE's header position
+    t0 = calendar_to_system_s("G", 2024, 1, 1, 0, 0, 0.0)
+    eps, types = simulate_station(read_rinex_nav(nav_path), xyz, t0, t0 + 86400.0 - 30.0, 30.0, seed=1)
+    out = folder / "SIMU00FRA_S_20240010000_01D_30S_MO.rnx"
+    write_rinex3_obs(out, eps, types, xyz, 30.0, marker="SIMU",
+                     comments=["simulated station (hyper_nav_sim.core.gnss.station), perfect model",
+                               "broadcast records of BRDC00IGS_R_20240010000_01D_MN"])
+    return str(out), [str(nav_path)]
 
 
 def main(argv=None) -> int:
@@ -142,8 +176,13 @@ def main(argv=None) -> int:
     compare(files[0], files[1:], a.mode, a.repeat, "file")
     day = (a.day[0], a.day[1:]) if a.day else (None if a.files else find_day_file())
     if day is None and not a.files:
-        print(f"24 h, 30 s multi-GNSS file: not available (none under {SHARED / 'real-data'} or "
-              f"{SHARED / 'gnss-real'}; give one with --day OBS NAV)")
+        print(f"24 h, 30 s multi-GNSS file: none recorded (none under {SHARED / 'real-data'} or "
+              f"{SHARED / 'gnss-real'}; give one with --day OBS NAV): a simulated station's day instead")
+        with tempfile.TemporaryDirectory(prefix="bench_spp_day_") as tmp:
+            t0 = time.perf_counter()
+            obs, navs = simulated_day(pathlib.Path(tmp), TLSE[1])
+            print(f"  (simulated in {time.perf_counter() - t0:.0f} s: {obs})")
+            compare(obs, navs, a.mode, a.repeat, "24 h, 30 s simulated station (perfect model)")
     elif day is not None:
         compare(day[0], day[1], a.mode, a.repeat, "24 h file")
     return 0

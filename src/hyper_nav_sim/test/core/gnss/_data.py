@@ -24,3 +24,14 @@ def real_file(name: str) -> Path:
 def read_sp3_csv(name: str):
     """Rows (t_gpst_s, sat, r_e_m[3], clk_s or nan)."""
     return broadcast_error.read_sp3_csv(real_file(name))
+
+
+REAL_DATA_DIR = Path(__file__).resolve().parents[5] / ".." / "shared" / "real-data"
+TLSE_NAV = "tlse_2024001/BRDC00IGS_R_20240010000_01D_MN.rnx.gz"
+
+
+def real_data_file(name: str) -> Path:
+    p = REAL_DATA_DIR / name
+    if not p.exists():
+        pytest.skip(f"real-data file {p} absent (expected ../shared/real-data beside the repo)")
+    return p
