@@ -23,7 +23,7 @@ Shared machine: 2 cores, other engineers' tests running; report what it
 says about that.
 
     python benchmarks/current_latency.py [--duration 20] [--cases loose200,loose1000,tight200,tight1000]
-        [--executors single,events]
+        [--executors single,events] [--variants plain,realtime,floor]
 """
 from __future__ import annotations
 
@@ -71,7 +71,39 @@ def cpu_s(pid: int) -> float:
 RT_SETTINGS = {"realtime.priority": 80, "realtime.lock_memory": True, "realtime.cpu_dma_latency_us": 0}
 
 
-def measure(bag: pathlib.Path, domain: int, executor: str = "single", realtime: bool = False) -> dict:
+def echo_node(executor: str) -> None:
+    """The floor of the measurement: an rclpy node that republishes each
+    ``imu/data_raw`` sample at once as an empty ``nav/state`` with its stamp
+    (no filter, no conversion), spun as the fusion node is (``run_node``, the
+    same executor); subscribes the other inputs the bench publishes and drops
+    them."""
+    from geometry_msgs.msg import TwistWithCovarianceStamped
+    from rclpy.node import Node
+    from sensor_msgs.msg import Imu, NavSatFix
+
+    from hyper_nav_filter.ros_util import publisher_qos, run_node, subscriber_qos
+    from hyper_nav_msgs.msg import GnssEphemeris, GnssMeasurements, NavState
+
+    class Echo(Node):
+        executor_kind = executor
+
+        def __init__(self):
+            super().__init__("latency_floor")
+            pub = self.create_publisher(NavState, "nav/state", publisher_qos(2000))
+
+            def on_imu(m):
+                out = NavState()
+                out.header.stamp = m.header.stamp
+                pub.publish(out)
+            self.create_subscription(Imu, "imu/data_raw", on_imu, subscriber_qos(True, 2000))
+            for typ, topic in ((NavSatFix, "gnss/fix"), (TwistWithCovarianceStamped, "gnss/vel"),
+                               (GnssMeasurements, "gnss/raw"), (GnssEphemeris, "gnss/ephemeris")):
+                self.create_subscription(typ, topic, lambda m: None, subscriber_qos(True, 2000))
+    run_node(Echo)
+
+
+def measure(bag: pathlib.Path, domain: int, executor: str = "single", realtime: bool = False,
+            floor: bool = False) -> dict:
     import rclpy
     from rclpy.serialization import deserialize_message
 
@@ -104,8 +136,12 @@ def measure(bag: pathlib.Path, domain: int, executor: str = "single", realtime: 
     msgs.sort(key=lambda tm: (not inputs[tm[0]][1], tm[1].header.stamp.sec + tm[1].header.stamp.nanosec * 1e-9
                               if hasattr(tm[1], "header") else 0.0))
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
-    proc = subprocess.Popen([ROS2RUN, "hyper_nav_filter", "fusion_node", "--ros-args", "--params-file", str(pfile)],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    cmd = ([sys.executable, __file__, "--echo-node", executor] if floor else
+           [ROS2RUN, "hyper_nav_filter", "fusion_node", "--ros-args", "--params-file", str(pfile)])
+    if os.environ.get("LATENCY_PROFILE") and not floor:      # the fusion node under cProfile, stats to this file
+        cmd = [sys.executable, "-m", "cProfile", "-o", os.environ["LATENCY_PROFILE"], "-m",
+               "hyper_nav_filter.nodes.fusion_node", *cmd[3:]]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             start_new_session=True)
     ctx = rclpy.context.Context()
     rclpy.init(context=ctx, domain_id=domain)
@@ -235,12 +271,18 @@ def main(argv=None):
     ap.add_argument("--executors", default="single",
                     help="the fusion node's executor(s), comma-separated, each measured on the same recording: "
                          "single, events")
-    ap.add_argument("--realtime", action="store_true",
-                    help="also measure each executor with the fusion node's real-time settings (hyper_nav_filter."
-                         "realtime): SCHED_FIFO 80 for its threads, memory locked, /dev/cpu_dma_latency held at 0 "
-                         "(needs root or CAP_SYS_NICE; the PM QoS request holds the whole machine's cores awake)")
+    ap.add_argument("--variants", default="plain",
+                    help="comma-separated, each measured per executor: plain (the fusion node as configured), "
+                         "realtime (with its real-time settings, hyper_nav_filter.realtime: SCHED_FIFO 80 for its "
+                         "threads, memory locked, /dev/cpu_dma_latency held at 0; needs root or CAP_SYS_NICE), floor "
+                         "(an echo node in place of the fusion node: rclpy and DDS alone, each IMU sample republished "
+                         "at once as an empty nav/state)")
+    ap.add_argument("--echo-node", metavar="EXECUTOR", help=argparse.SUPPRESS)
     ap.add_argument("--out", default="results/current_latency.json")
     a = ap.parse_args(argv)
+    if a.echo_node:
+        echo_node(a.echo_node)
+        return 0
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         for case in a.cases.split(","):
@@ -249,17 +291,21 @@ def main(argv=None):
             ip = in_process(bag)
             print(f"{case:10s} in process (router + engine + predictor + message conversion, no DDS): median "
                   f"{ip['median_ms']:.3f} ms, p99 {ip['p99_ms']:.3f} ms, max {ip['max_ms']:.3f} ms", flush=True)
-            for ex, rt in [(ex, rt) for ex in a.executors.split(",") for rt in ((False, True) if a.realtime
-                                                                               else (False,))]:
-                r = measure(bag, a.domain, ex, rt)
+            kinds = {"plain": (False, False), "realtime": (True, False), "floor": (False, True)}
+            variants = [(ex, *kinds[v]) for ex in a.executors.split(",") for v in a.variants.split(",")]
+            for ex, rt, fl in variants:
+                r = measure(bag, a.domain, ex, rt, fl)
                 r["in_process"] = ip
                 r["executor"] = ex
                 r["realtime"] = RT_SETTINGS if rt else None
+                r["node"] = "echo (floor: rclpy + DDS, no filter)" if fl else "fusion_node"
                 with open("/proc/loadavg") as fh:
                     r["loadavg_1min"] = float(fh.read().split()[0])
-                results[(case if ex == "single" else f"{case}_{ex}") + ("_rt" if rt else "")] = r
+                results[(case if ex == "single" else f"{case}_{ex}") + ("_rt" if rt else "") + ("_floor" if fl
+                                                                                                else "")] = r
                 rv = r["received"]
-                print(f"{case:10s} {scenario} IMU {hz:g} Hz, executor {ex}{' real-time' if rt else ''}: IMU "
+                print(f"{case:10s} {scenario} IMU {hz:g} Hz, executor {ex}{' real-time' if rt else ''}"
+                      f"{' ECHO NODE (floor)' if fl else ''}: IMU "
                       f"published -> state published: median {r['median_ms']:.3f} ms, p99 {r['p99_ms']:.3f} ms, max "
                       f"{r['max_ms']:.3f} ms (-> received here: {rv['median_ms']:.3f} / {rv['p99_ms']:.3f} / "
                       f"{rv['max_ms']:.3f} ms); states {r['states_received']} of "

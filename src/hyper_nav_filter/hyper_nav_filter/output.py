@@ -1,4 +1,6 @@
 """Solution -> output message fields (flat {'a.b': value} dicts), no rclpy.
+Covariances are flat numpy arrays (``ros_util.assign_fields`` fills the
+message's own storage from their bytes).
 
 Frames (README, "Frames"): ``nav/state`` is geodetic + local-level ENU at the
 current position (frame ``enu``); ``nav/odom`` is in ``map``, the ENU tangent
@@ -49,7 +51,7 @@ def navstate_fields(sol: Solution, layout: StateLayout, frames: OutputFrames, me
         "roll_rad": float(roll), "pitch_rad": float(pitch), "heading_rad": float(heading),
         "omega_ib_b_radps": sol.omega_ib_b_radps.tolist(), "accel_b_mps2": sol.f_b_mps2.tolist(),
         "gyro_bias_b_radps": s.gyro_bias_b_radps.tolist(), "accel_bias_b_mps2": s.accel_bias_b_mps2.tolist(),
-        "state_blocks": layout.describe(), "state_dim": layout.dim, "covariance": sol.P.ravel().tolist(),
+        "state_blocks": layout.describe(), "state_dim": layout.dim, "covariance": sol.P.ravel(),
         "n_updates": sol.n_updates, "n_rejected": sol.n_rejected,
         "last_nis": float(sol.last_nis) if np.isfinite(sol.last_nis) else -1.0,
     })
@@ -101,13 +103,13 @@ def odometry_fields(sol: Solution, layout: StateLayout, frames: OutputFrames, po
         "pose.pose.position.z": float(pos[2]),
         "pose.pose.orientation.x": q[0], "pose.pose.orientation.y": q[1],
         "pose.pose.orientation.z": q[2], "pose.pose.orientation.w": q[3],
-        "pose.covariance": cov.ravel().tolist(),
+        "pose.covariance": cov.ravel(),
         "twist.twist.linear.x": float(v_b[0]), "twist.twist.linear.y": float(v_b[1]),
         "twist.twist.linear.z": float(v_b[2]),
         "twist.twist.angular.x": float(w_eb_b[0]),
         "twist.twist.angular.y": float(w_eb_b[1]),
         "twist.twist.angular.z": float(w_eb_b[2]),
-        "twist.covariance": tcov.ravel().tolist(),
+        "twist.covariance": tcov.ravel(),
     })
     return d
 
@@ -120,7 +122,7 @@ def navsatfix_fields(sol: Solution, layout: StateLayout, frames: OutputFrames) -
         "status.status": 0, "status.service": 1,   # STATUS_FIX, SERVICE_GPS
         "latitude": float(np.rad2deg(s.lat_rad)), "longitude": float(np.rad2deg(s.lon_rad)),
         "altitude": float(s.alt_m),
-        "position_covariance": sol.P[p_sl, p_sl].ravel().tolist(),
+        "position_covariance": sol.P[p_sl, p_sl].ravel(),
         "position_covariance_type": 3,                   # COVARIANCE_TYPE_KNOWN
     })
     return d

@@ -297,17 +297,23 @@ class FusionNode(Node):
         """NavState, Odometry and NavSatFix of one solution; its map pose.
         ``stamp``: the header stamp as received (the IMU message's: float
         seconds of a wall-clock epoch keep 0.24 us, not the nanoseconds)."""
+        # each message published as soon as it is built: NavState first (what guidance waits for)
         m = NavStateMsg()
         assign_fields(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
+        if stamp is not None:
+            m.header.stamp = stamp
+        pubs[0].publish(m)
         pose = map_pose(sol, self.frames)
         o = Odometry()
         assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames, pose))
+        if stamp is not None:
+            o.header.stamp = stamp
+        pubs[1].publish(o)
         f = NavSatFix()
         assign_fields(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
-        for out, pub in zip((m, o, f), pubs):
-            if stamp is not None:
-                out.header.stamp = stamp
-            pub.publish(out)
+        if stamp is not None:
+            f.header.stamp = stamp
+        pubs[2].publish(f)
         for t in names:
             self.counts[f"published {t}"] += 1
         return pose
