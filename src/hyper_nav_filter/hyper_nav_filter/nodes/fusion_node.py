@@ -108,6 +108,14 @@ _OUTPUTS = ("nav/state", "nav/odom", "nav/fix")                              # c
 DELAYED_OUTPUTS = ("nav/delayed/state", "nav/delayed/odom", "nav/delayed/fix")    # released, order-independent
 
 
+def _send(pub, msg, fields: dict, stamp=None) -> None:
+    """Fill ``msg`` from its flat fields, stamp it (when given) and publish it."""
+    assign_fields(msg, fields)
+    if stamp is not None:
+        msg.header.stamp = stamp
+    pub.publish(msg)
+
+
 def message_class(type_name: str):
     """``pkg/msg/Name`` -> the rclpy message class."""
     pkg, _, name = type_name.split("/")
@@ -298,22 +306,11 @@ class FusionNode(Node):
         ``stamp``: the header stamp as received (the IMU message's: float
         seconds of a wall-clock epoch keep 0.24 us, not the nanoseconds)."""
         # each message published as soon as it is built: NavState first (what guidance waits for)
-        m = NavStateMsg()
-        assign_fields(m, navstate_fields(sol, self.cfg.layout, self.frames, self.cfg.mechanization_frame))
-        if stamp is not None:
-            m.header.stamp = stamp
-        pubs[0].publish(m)
+        lay = self.cfg.layout
+        _send(pubs[0], NavStateMsg(), navstate_fields(sol, lay, self.frames, self.cfg.mechanization_frame), stamp)
         pose = map_pose(sol, self.frames)
-        o = Odometry()
-        assign_fields(o, odometry_fields(sol, self.cfg.layout, self.frames, pose))
-        if stamp is not None:
-            o.header.stamp = stamp
-        pubs[1].publish(o)
-        f = NavSatFix()
-        assign_fields(f, navsatfix_fields(sol, self.cfg.layout, self.frames))
-        if stamp is not None:
-            f.header.stamp = stamp
-        pubs[2].publish(f)
+        _send(pubs[1], Odometry(), odometry_fields(sol, lay, self.frames, pose), stamp)
+        _send(pubs[2], NavSatFix(), navsatfix_fields(sol, lay, self.frames), stamp)
         for t in names:
             self.counts[f"published {t}"] += 1
         return pose

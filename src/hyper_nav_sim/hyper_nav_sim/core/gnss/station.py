@@ -47,7 +47,10 @@ def obs_types(signals: dict[str, tuple]) -> dict[str, list[str]]:
 
 @dataclass
 class _Records:
-    """Healthy broadcast records of one satellite, by toe (nearest picked as ``select_ephemeris`` does)."""
+    """Healthy broadcast records of one satellite, by toe (nearest picked as ``select_ephemeris`` does).
+    Not ``select_ephemeris`` itself: it scans every record of the file per call, and a day at 30 s asks
+    it 2,880 x ~90 times over ~7,000 records; a bisect over each satellite's own sorted list is the same
+    choice (nearest toe within the system's age limit) in O(log n)."""
     toe_s: list
     recs: list
 
