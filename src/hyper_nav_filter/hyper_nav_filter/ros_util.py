@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import array
+import gc
 import math
 import signal
 import threading
@@ -142,6 +143,8 @@ def run_node(node_factory, args=None, linger_s: float = 0.3, exit_grace_s: float
         node = node_factory()
         executor = make_executor(getattr(node, "executor_kind", "single"))
         executor.add_node(node)
+        gc.collect()
+        gc.freeze()
         while not stop.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
         if rclpy.ok() and hasattr(node, "on_shutdown"):

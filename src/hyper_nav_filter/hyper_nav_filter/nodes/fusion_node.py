@@ -22,7 +22,9 @@ samples or model updates. Two output streams (STYLE pattern 19):
 Also ``base_link -> imu_link / gnss_antenna / magnetometer`` once on
 ``/tf_static`` (transient local) and ``/diagnostics`` (counters per input
 topic, gate statistics, mode and the sources it runs on, stream liveness,
-heartbeat). The initial state
+heartbeat). Each output message is kept as its serialized bytes and
+published as such (``cdr_template``: no rclpy message object per sample).
+The initial state
 (``init.*``, ``core.initial_state``) includes the IMU error values. All math is in
 ``hyper_nav_filter.core``; parameters are declared once with descriptors
 (``core.params``).
@@ -50,6 +52,7 @@ from ..core.warmup import warm_up
 from ..core.fusion import MODE_NAMES, FusionEngine
 from ..core.initial_state import INIT_PARAMS, initial_state
 from ..core.params import BOOL, FLOAT, FLOATS, INT, STR, ConfigError, ParamSpec, positive
+from ..cdr_template import CdrTemplate
 from ..clock_gate import ClockAllowance, InputsIdle, InputsReady
 from ..replay_order import LATE_INPUTS_TOPIC, LateInputTracker, stamp_ns
 from ..realtime import REALTIME_PARAMS, apply as apply_realtime
@@ -108,12 +111,27 @@ _OUTPUTS = ("nav/state", "nav/odom", "nav/fix")                              # c
 DELAYED_OUTPUTS = ("nav/delayed/state", "nav/delayed/odom", "nav/delayed/fix")    # released, order-independent
 
 
-def _send(pub, msg, fields: dict, stamp=None) -> None:
-    """Fill ``msg`` from its flat fields, stamp it (when given) and publish it."""
-    assign_fields(msg, fields)
-    if stamp is not None:
-        msg.header.stamp = stamp
-    pub.publish(msg)
+class _Output:
+    """A publisher and its message kept as CDR bytes (``cdr_template``: the
+    numbers written in place, no rclpy message object per sample)."""
+
+    def __init__(self, pub, template: CdrTemplate, header: str = "header"):
+        self.pub, self.template, self.header = pub, template, header
+
+    def send(self, fields: dict, stamp=None) -> None:
+        """Publish ``fields``, stamped with ``stamp`` (a received Time) when given."""
+        tpl = self.template
+        tpl.fill(fields)
+        if stamp is not None:
+            tpl.set_stamp(self.header + ".stamp", stamp.sec, stamp.nanosec)
+        self.pub.publish(tpl.bytes())
+
+
+def tf_message(fields: dict) -> TFMessage:
+    """A TFMessage of one TransformStamped from its flat fields (``output.transform_fields``)."""
+    t = TransformStamped()
+    assign_fields(t, fields)
+    return TFMessage(transforms=[t])
 
 
 def message_class(type_name: str):
@@ -144,16 +162,16 @@ class FusionNode(Node):
         self.frames = OutputFrames(p["frames.map"], p["frames.enu"], p["frames.body"],
                                    np.deg2rad(origin[0]), np.deg2rad(origin[1]), origin[2])
         qos = publisher_qos(p["qos.depth"])
-        self.pub_state = self.create_publisher(NavStateMsg, "nav/state", qos)
-        self.pub_odom = self.create_publisher(Odometry, "nav/odom", qos)
-        self.pub_fix = self.create_publisher(NavSatFix, "nav/fix", qos)
-        self.pub_delayed = (self.create_publisher(NavStateMsg, DELAYED_OUTPUTS[0], qos),
-                            self.create_publisher(Odometry, DELAYED_OUTPUTS[1], qos),
-                            self.create_publisher(NavSatFix, DELAYED_OUTPUTS[2], qos))
+        types = (NavStateMsg, Odometry, NavSatFix)
+        self.out_current = tuple(_Output(self.create_publisher(c, t, qos), CdrTemplate(c))
+                                 for c, t in zip(types, _OUTPUTS))
+        self.out_delayed = tuple(_Output(self.create_publisher(c, t, qos), CdrTemplate(c))
+                                 for c, t in zip(types, DELAYED_OUTPUTS))
         self._n_imu = 0
-        self.pub_tf = self.pub_tf_static = None
+        self.out_tf = self.pub_tf_static = None
         if p["tf.publish"]:
-            self.pub_tf = self.create_publisher(TFMessage, "/tf", qos)
+            self.out_tf = _Output(self.create_publisher(TFMessage, "/tf", qos),
+                                  CdrTemplate(TFMessage, tf_message, prefix="transforms.0."))
             self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", latched_qos(10))
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", publisher_qos(100))
         # inputs received behind the IMU (replay_order): transient local, so a late-joining recorder gets them
@@ -182,7 +200,7 @@ class FusionNode(Node):
         self._set_allowance()
         self.counts = {f"published {t}": 0 for t in _OUTPUTS + DELAYED_OUTPUTS}
         self.counts[f"published {LATE_INPUTS_TOPIC}"] = 0
-        if self.pub_tf is not None:
+        if self.out_tf is not None:
             self.counts.update({"published tf": 0, "published tf_static": 0})
         self._subs = []
         self._last_imu_wall = None
@@ -218,10 +236,10 @@ class FusionNode(Node):
     def _start_when_ready(self):
         """Subscribe to inputs only once every output has its subscribers, so
         nothing computed is published into the void."""
-        if not all_matched([self.pub_state, self.pub_odom, self.pub_fix], self.p["min_output_subscribers"]):
+        if not all_matched([o.pub for o in self.out_current], self.p["min_output_subscribers"]):
             return
-        if self.pub_tf is not None:
-            if not all_matched([self.pub_tf, self.pub_tf_static], self.p["tf.min_subscribers"]):
+        if self.out_tf is not None:
+            if not all_matched([self.out_tf.pub, self.pub_tf_static], self.p["tf.min_subscribers"]):
                 return
             self._publish_static_transforms()
         self._wait_timer.cancel()
@@ -301,34 +319,31 @@ class FusionNode(Node):
         self.pub_late.publish(m)
         self.counts[f"published {LATE_INPUTS_TOPIC}"] += 1
 
-    def _publish_stream(self, sol, pubs, names, stamp=None):
+    def _publish_stream(self, sol, outs, names, stamp=None):
         """NavState, Odometry and NavSatFix of one solution; its map pose.
         ``stamp``: the header stamp as received (the IMU message's: float
         seconds of a wall-clock epoch keep 0.24 us, not the nanoseconds)."""
         # each message published as soon as it is built: NavState first (what guidance waits for)
         lay = self.cfg.layout
-        _send(pubs[0], NavStateMsg(), navstate_fields(sol, lay, self.frames, self.cfg.mechanization_frame), stamp)
+        outs[0].send(navstate_fields(sol, lay, self.frames, self.cfg.mechanization_frame), stamp)
         pose = map_pose(sol, self.frames)
-        _send(pubs[1], Odometry(), odometry_fields(sol, lay, self.frames, pose), stamp)
-        _send(pubs[2], NavSatFix(), navsatfix_fields(sol, lay, self.frames), stamp)
+        outs[1].send(odometry_fields(sol, lay, self.frames, pose), stamp)
+        outs[2].send(navsatfix_fields(sol, lay, self.frames), stamp)
         for t in names:
             self.counts[f"published {t}"] += 1
         return pose
 
     def _publish_current(self, sol, stamp):
         """The current-time state (nav/state, nav/odom, nav/fix, /tf), stamped as its IMU sample."""
-        pose = self._publish_stream(sol, (self.pub_state, self.pub_odom, self.pub_fix), _OUTPUTS, stamp)
-        if self.pub_tf is not None:
-            tf = TransformStamped()
-            assign_fields(tf, transform_fields(sol, self.frames, pose))
-            tf.header.stamp = stamp
-            self.pub_tf.publish(TFMessage(transforms=[tf]))
+        pose = self._publish_stream(sol, self.out_current, _OUTPUTS, stamp)
+        if self.out_tf is not None:
+            self.out_tf.send(transform_fields(sol, self.frames, pose), stamp)
             self.counts["published tf"] += 1
 
     def _publish(self, solutions):
         """Released solutions (the delayed stream)."""
         for sol in solutions:
-            self._publish_stream(sol, self.pub_delayed, DELAYED_OUTPUTS)
+            self._publish_stream(sol, self.out_delayed, DELAYED_OUTPUTS)
 
     def _publish_static_transforms(self):
         """base_link -> imu_link / gnss_antenna / magnetometer (lever arms, body FLU; the IMU's mounting
