@@ -101,9 +101,10 @@ def make_executor(kind: str = "single"):
     a wait set rebuilt each spin) or ``events`` (rclpy's experimental
     EventsExecutor, Jazzy: callbacks pushed by the middleware, timers in a
     timer manager; measured on this project's fusion node at a 1 kHz IMU:
-    37 % of a core instead of 57 %, benchmarks/current_latency.py). Its
-    timers follow ROS time like the other's; it is experimental upstream, so
-    ``single`` stays the default."""
+    45-48 % of a core instead of 76-80 %, benchmarks/current_latency.py). Its
+    timers follow ROS time like the other's. ``single`` is the default here;
+    the fusion node's own default is ``events`` (its ``executor`` parameter:
+    the whole graph suite runs with it)."""
     if kind == "events":
         from rclpy.experimental import EventsExecutor
         return EventsExecutor()

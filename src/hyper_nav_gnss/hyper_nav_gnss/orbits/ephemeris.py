@@ -30,6 +30,7 @@ module, not the other way round).
 from __future__ import annotations
 
 import datetime as _dt
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -289,15 +290,26 @@ def select_ephemeris(ephs, sat_id: str, t_s: float, max_age_s: float | None = No
     (Galileo): ``GAL_CLOCK_E1E5A`` or ``GAL_CLOCK_E1E5B`` keeps only records
     whose clock refers to that pair (F/NAV or I/NAV), falling back to any
     record when none does; 0 = any."""
-    cands = [e for e in ephs if e.sat_id == sat_id and e.health == 0]
-    if clock and cands:
-        pref = [e for e in cands if e.data_source & clock]
-        cands = pref or cands
-    if not cands:
+    # one pass, no per-record string or property: a station's day of records (77 per satellite) made the
+    # list-and-min form 60 % of spp's solve (1.8 M sat_id strings for 42,000 choices); the same choice:
+    # the first record of least |t - toe| among the healthy ones, among those of the preferred clock if any
+    system, prn = sat_id[0], int(sat_id[1:])
+    best = best_pref = None
+    d_best = d_pref = math.inf
+    for e in ephs:
+        if e.prn != prn or e.system != system or e.health != 0:
+            continue
+        d = abs(t_s - (e.week * SECONDS_PER_WEEK + e.toe))          # e.toe_s
+        if d < d_best:
+            best, d_best = e, d
+        if clock and e.data_source & clock and d < d_pref:
+            best_pref, d_pref = e, d
+    if best_pref is not None:
+        best, d_best = best_pref, d_pref
+    if best is None:
         return None
-    best = min(cands, key=lambda e: abs(t_s - e.toe_s))
     lim = max_age_s if max_age_s is not None else MAX_AGE_S.get(best.system, 3600.0)
-    return best if abs(t_s - best.toe_s) <= lim + 1e-6 else None
+    return best if d_best <= lim + 1e-6 else None
 
 
 def shift_ephemeris(eph: BroadcastEphemeris, toe_new_s: float, secular: bool = True) -> BroadcastEphemeris:
