@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hyper_nav_gnss.orbits.ephemeris import BroadcastEphemeris, select_ephemeris, system_time_s
+from hyper_nav_gnss.orbits.ephemeris import BroadcastEphemeris, NearestToe, select_ephemeris, system_time_s
 
 SUPPORTED_SYSTEMS = ("G", "C")
 EPHEMERIS_SYSTEMS = ("G", "E", "C", "J")          # records the store takes (receiver_model: real signals)
@@ -135,6 +135,7 @@ class EphemerisStore:
         self._by_sat: dict[tuple[str, int], list[BroadcastEphemeris]] = {}
         self._received: dict[tuple, float] = {}       # (system, prn, week, toe) -> reception time (s)
         self._select_cache: dict = {}           # receiver_model's per-minute record choice
+        self._nearest: dict = {}                # (system, prn) -> NearestToe of its whole list
         for r in records:
             self.add(r)
 
@@ -156,6 +157,7 @@ class EphemerisStore:
         known = key in self._received              # only then can a stored record have this week and toe
         self._received[key] = min(self._received.get(key, math.inf), float(received_s))
         self._select_cache.clear()
+        self._nearest.pop((eph.system, int(eph.prn)), None)
         recs = self._by_sat.setdefault((eph.system, int(eph.prn)), [])
         if known:
             for i, r in enumerate(recs):
@@ -171,6 +173,19 @@ class EphemerisStore:
         if recs and received_by_s < math.inf:
             recs = [r for r in recs if self._received[(r.system, int(r.prn), r.week, r.toe)] <= received_by_s + 1e-9]
         return recs
+
+    def choose(self, recs: list, t_sys_s: float, clock: int = 0):
+        """``select_ephemeris(recs, ..., t_sys_s, clock=clock)``: the same
+        record; by a satellite's ``NearestToe`` (kept until a record of it is
+        added) when ``recs`` is its whole list (``records_of`` with every
+        record received)."""
+        key = (recs[0].system, int(recs[0].prn))
+        if recs is not self._by_sat.get(key):
+            return select_ephemeris(recs, recs[0].sat_id, t_sys_s, clock=clock)
+        ix = self._nearest.get(key)
+        if ix is None:
+            ix = self._nearest[key] = NearestToe(recs)
+        return ix.select(t_sys_s, clock=clock)
 
     def select(self, system: str, prn: int, t_gpst_s: float,
                received_by_s: float = math.inf) -> BroadcastEphemeris | None:

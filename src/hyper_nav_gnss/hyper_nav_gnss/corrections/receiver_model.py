@@ -143,7 +143,8 @@ def _select_now(store, system, prn, t_gpst_s, clock, counters, received_by_s=np.
         counters["no_ephemeris"] += 1
         return None
     t_sys = float(system_time_s(system, t_gpst_s))
-    eph = select_ephemeris(recs, recs[0].sat_id, t_sys, clock=clock)
+    eph = store.choose(recs, t_sys, clock) if hasattr(store, "choose") else \
+        select_ephemeris(recs, recs[0].sat_id, t_sys, clock=clock)
     if eph is None:
         if any(e.health != 0 for e in recs) and select_ephemeris(
                 [replace(e, health=0) for e in recs], recs[0].sat_id, t_sys) is not None:
