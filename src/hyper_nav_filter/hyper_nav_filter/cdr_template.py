@@ -45,12 +45,6 @@ def _align(off: int, n: int) -> int:
     return off + (-rel) % min(n, 8)
 
 
-def _message_class(type_name: str):
-    import importlib
-    pkg, name = type_name.split("/")
-    return getattr(importlib.import_module(f"{pkg}.msg"), name)
-
-
 def _walk(msg, buf: bytes, off: int, prefix: str, numbers: dict, fixed: dict) -> int:
     """Offsets of ``msg``'s numeric fields (``numbers``: path -> (offset,
     struct code, count)) and its strings and lengths (``fixed``: path ->

@@ -193,7 +193,7 @@ class EphemerisStore:
         recs = self.records_of(system, prn, received_by_s)
         if not recs:
             return None
-        return select_ephemeris(recs, recs[0].sat_id, float(system_time_s(system, t_gpst_s)))
+        return self.choose(recs, float(system_time_s(system, t_gpst_s)))
 
     def __contains__(self, key) -> bool:
         return (key[0], int(key[1])) in self._by_sat

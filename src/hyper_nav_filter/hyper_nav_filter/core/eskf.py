@@ -386,11 +386,12 @@ class ErrorStateKF:
     def model(self, meas, ctx):
         """(residual, H, R) of a measurement at the current state, H in this
         filter's own error state (models are written in the ENU convention).
-        A measurement may declare ``state_resets`` (see :meth:`apply_resets`),
+        The measurement's ``state_resets`` (see :meth:`apply_resets`) are
         applied first: part of the measurement event, so re-processing a late
-        event repeats them."""
-        self.apply_resets(getattr(meas, "state_resets", None))
-        fast_model = getattr(meas, "fast_model", None) if self.fast else None
+        event repeats them (``measurements.Measurement`` declares what every
+        measurement has)."""
+        self.apply_resets(meas.state_resets)
+        fast_model = meas.fast_model if self.fast else None
         if fast_model is not None:          # compiled form, on the geodetic/ENU view only
             residual, H, R = fast_model(self.frame.view(self.x_nav, self.t_s), self.layout, ctx)
         else:

@@ -61,6 +61,8 @@ MODE_NAMES = {MODE_INITIALIZING: "initializing", MODE_INS_ONLY: "INS only", MODE
 _COUPLING_MODE = {"tight": MODE_TIGHTLY_COUPLED, "loose": MODE_LOOSELY_COUPLED, "aiding": MODE_AIDED}
 MODE_WINDOW_S = 1.0            # a source counts toward the mode for this long after an accepted update
 _EPS_S = 1e-9
+_MODEL_UPDATE, _MEASUREMENT = 0, 1   # an event's queue priority (a model update before the measurements of its
+                                     # epoch), given by its entry point: ``_apply`` knows what each event is by it
 
 
 def _tol(t: float) -> float:
@@ -420,7 +422,7 @@ class FusionEngine:
         kind = meas.kind
         if not is_finite(meas):
             return self._reject(f"{kind}_nan")
-        return self._queue(meas, 1)
+        return self._queue(meas, _MEASUREMENT)
 
     def add_model_update(self, update: ModelUpdate) -> tuple[bool, str]:
         """Queue a model update, applied at ``update.t_s`` (before measurements
@@ -429,7 +431,7 @@ class FusionEngine:
             self.cfg.with_updates(update.fields)
         except ConfigError:
             return self._reject("model_update_invalid")
-        return self._queue(update, 0)
+        return self._queue(update, _MODEL_UPDATE)
 
     def _queue(self, event, priority: int) -> tuple[bool, str]:
         kind, t = event.kind, event.t_s
@@ -561,15 +563,14 @@ class FusionEngine:
             self._revision += 1
         for key in events:
             t_m, ev = key[0], key[-1]
-            apply_to = getattr(ev, "apply_to", None)          # an event that changes the model (ModelUpdate)
-            if apply_to is not None:
-                apply_to(self.kf)
+            if key[1] == _MODEL_UPDATE:                       # the queue's entry point says what it is
+                ev.apply_to(self.kf)
             else:
                 if ep.ctx is None:
                     ep.ctx = ModelContext.at(self.kf, ep.imu, self.cfg.antenna_lever_arm_b_m)
                 res = self.kf.update(ev.kind, t_m, *self.kf.model(ev, ep.ctx.shifted(t_m - ep.imu.t_s)))
                 if res.accepted:
-                    ep.last_accept = {**ep.last_accept, (ev.kind, getattr(ev, "coupling", "aiding")): t_m}
+                    ep.last_accept = {**ep.last_accept, (ev.kind, ev.coupling): t_m}
             ep.last_key = key[:4]
         ep.snap = self.kf.snapshot()
         if self.keep_history:

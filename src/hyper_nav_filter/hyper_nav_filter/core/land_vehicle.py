@@ -32,12 +32,13 @@ import math
 import numpy as np
 
 from .attitude import skew
+from .measurements import Measurement
 from .nav_state import NavState
 from .state_layout import StateLayout
 
 
 @dataclass(frozen=True)
-class ZeroVelocity:
+class ZeroVelocity(Measurement):
     """Zero velocity at epoch t_s (standstill), ENU covariance (m/s)^2."""
     t_s: float
     var_mps2: float
@@ -51,7 +52,7 @@ class ZeroVelocity:
 
 
 @dataclass(frozen=True)
-class NonHolonomic:
+class NonHolonomic(Measurement):
     """Zero lateral and vertical body velocity at epoch t_s, variance (m/s)^2 each."""
     t_s: float
     var_mps2: float

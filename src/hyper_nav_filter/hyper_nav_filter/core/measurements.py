@@ -29,8 +29,26 @@ from .nav_state import NavState
 from .state_layout import StateLayout
 
 
+class Measurement:
+    """What every measurement declares, read by the engine and the filter
+    as attributes (never probed for): ``kind`` (its counters' name, a field
+    of each measurement), ``coupling`` ("loose", "tight" or other "aiding":
+    the solution's mode), ``state_resets`` (block elements taken anew before
+    the update, ``ErrorStateKF.apply_resets``), ``fast_model`` (``model`` in
+    compiled form on the geodetic/ENU view, or None) and ``model``. A
+    measurement type (here, in an aiding package or a user's plugin)
+    subclasses it and overrides what it has."""
+    coupling = "aiding"
+    state_resets = ()
+    fast_model = None
+
+    def model(self, state: NavState, layout: StateLayout, ctx: "ModelContext"):
+        """(residual, H, R) at ``state``, residual = predicted - measured, H in the ENU error convention."""
+        raise NotImplementedError(f"{type(self).__name__}.model")
+
+
 @dataclass(frozen=True)
-class GnssPosition:
+class GnssPosition(Measurement):
     """GNSS antenna position fix at epoch t_s; covariance in ENU (m^2)."""
     t_s: float
     lat_rad: float
@@ -61,7 +79,7 @@ class GnssPosition:
 
 
 @dataclass(frozen=True)
-class GnssVelocity:
+class GnssVelocity(Measurement):
     """GNSS antenna velocity w.r.t. Earth at epoch t_s; ENU, covariance (m/s)^2."""
     t_s: float
     vel_enu_mps: np.ndarray
@@ -89,7 +107,7 @@ class GnssVelocity:
 
 
 @dataclass(frozen=True)
-class BaroHeight:
+class BaroHeight(Measurement):
     """Barometric altitude (above the ellipsoid, after the pressure-to-height
     inversion) at epoch t_s, variance in m^2 (seed 003's altitude channel)."""
     t_s: float
@@ -106,7 +124,7 @@ class BaroHeight:
 
 
 @dataclass(frozen=True)
-class HorizontalFix:
+class HorizontalFix(Measurement):
     """Horizontal position fix (e.g. geomagnetic matching, seed 003 eqs.
     20-26): latitude/longitude with a 2x2 covariance in (E, N) m^2."""
     t_s: float
@@ -128,7 +146,7 @@ class HorizontalFix:
 
 
 @dataclass(frozen=True)
-class PositionFix:
+class PositionFix(Measurement):
     """3-D position fix of an aiding source (no antenna lever arm): latitude,
     longitude, altitude with a full ENU covariance (m^2), which may be
     degenerate, e.g. the geomagnetic pseudo-fix that informs one direction

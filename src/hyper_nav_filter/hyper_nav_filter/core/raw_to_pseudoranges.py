@@ -58,6 +58,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hyper_nav_gnss import earth
+from hyper_nav_filter.core.measurements import Measurement
 from hyper_nav_filter.core.params import ConfigError
 from hyper_nav_filter.core.nav_state import NavState
 from hyper_nav_filter.core.tightly_coupled import Pseudoranges
@@ -271,7 +272,7 @@ def _isb_cols(systems) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class RawPseudoranges:
+class RawPseudoranges(Measurement):
     """Measurement of the fusion engine (kind "pseudorange"): a raw epoch with
     its usable channels and their broadcast records, corrected inside the
     filter at the nominal state *of its epoch* (:meth:`model` builds the

@@ -18,6 +18,7 @@ import numpy as np
 
 from hyper_nav_gnss import earth
 from .attitude import skew
+from .measurements import Measurement
 from .nav_state import NavState
 from .state_layout import StateLayout
 
@@ -33,7 +34,7 @@ def sagnac_rotate(r_sat_e_m: np.ndarray, transit_s: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Pseudoranges:
+class Pseudoranges(Measurement):
     """Per-satellite corrected pseudoranges (m) and rates (m/s) at epoch t_s.
     ``rate_mps`` may be empty when only code is used.
 

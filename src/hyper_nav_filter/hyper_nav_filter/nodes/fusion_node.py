@@ -116,15 +116,15 @@ class _Output:
     """A publisher and its message kept as CDR bytes (``cdr_template``: the
     numbers written in place, no rclpy message object per sample)."""
 
-    def __init__(self, pub, template: CdrTemplate, header: str = "header"):
-        self.pub, self.template, self.header = pub, template, header
+    def __init__(self, pub, template: CdrTemplate):
+        self.pub, self.template = pub, template
 
     def send(self, fields: dict, stamp=None) -> None:
         """Publish ``fields``, stamped with ``stamp`` (a received Time) when given."""
         tpl = self.template
         tpl.fill(fields)
         if stamp is not None:
-            tpl.set_stamp(self.header + ".stamp", stamp.sec, stamp.nanosec)
+            tpl.set_stamp("header.stamp", stamp.sec, stamp.nanosec)
         self.pub.publish(tpl.bytes())
 
 

@@ -15,7 +15,7 @@ from hyper_nav_aiding.geomag.conversions import fix_measurement
 from hyper_nav_gnss import earth
 from hyper_nav_filter.core.config import FilterConfig
 from hyper_nav_filter.core.fusion import make_filter
-from hyper_nav_filter.core.measurements import ModelContext
+from hyper_nav_filter.core.measurements import Measurement, ModelContext
 from hyper_nav_filter.core.nav_state import NavState
 
 SPEC = MapSpec(lat_min_deg=44.0, lat_max_deg=44.5, lon_min_deg=110.0, lon_max_deg=110.5, grid_step_deg=0.05,
@@ -23,7 +23,7 @@ SPEC = MapSpec(lat_min_deg=44.0, lat_max_deg=44.5, lon_min_deg=110.0, lon_max_de
 
 
 @dataclass(frozen=True)
-class ScalarIntensity:
+class ScalarIntensity(Measurement):
     """The tightly coupled reference: z = F_map(r^) - m, H = grad F on pos."""
     t_s: float
     z_nT: float

@@ -22,16 +22,13 @@ solvers against each other, not for accuracy claims about real stations.
 """
 from __future__ import annotations
 
-import bisect
-from dataclasses import dataclass
-
 import numpy as np
 
 from hyper_nav_gnss import earth
 from hyper_nav_gnss.corrections.propagation import hopfield_delay_m, klobuchar_delay_m
 from hyper_nav_gnss.corrections.signal_delays import NoGroupDelay, group_delay_s
 from hyper_nav_gnss.geometry import elevation_azimuth, satellite_states_at_reception
-from hyper_nav_gnss.orbits.ephemeris import C_MPS, GAL_CLOCK_E1E5B, MAX_AGE_S, system_time_s
+from hyper_nav_gnss.orbits.ephemeris import C_MPS, GAL_CLOCK_E1E5B, NearestToe, system_time_s
 from hyper_nav_gnss.signals import frequency_hz
 
 from .observables import ClockModel, pr_sigma_m
@@ -45,28 +42,15 @@ def obs_types(signals: dict[str, tuple]) -> dict[str, list[str]]:
     return {s: [k + c for c in codes for k in "CLDS"] for s, codes in signals.items()}
 
 
-@dataclass
-class _Records:
-    """Healthy broadcast records of one satellite, by toe (nearest picked as ``select_ephemeris`` does).
-    Not ``select_ephemeris`` itself: it scans every record of the file per call, and a day at 30 s asks
-    it 2,880 x ~90 times over ~7,000 records; a bisect over each satellite's own sorted list is the same
-    choice (nearest toe within the system's age limit) in O(log n)."""
-    toe_s: list
-    recs: list
-
-    def at(self, t_sys_s: float, max_age_s: float):
-        k = bisect.bisect_left(self.toe_s, t_sys_s)
-        best = min((j for j in (k - 1, k) if 0 <= j < len(self.recs)), key=lambda j: abs(self.toe_s[j] - t_sys_s))
-        return self.recs[best] if abs(self.toe_s[best] - t_sys_s) <= max_age_s + 1e-6 else None
-
-
-def _by_satellite(nav, systems) -> dict[str, _Records]:
+def _by_satellite(nav, systems) -> dict[str, NearestToe]:
+    """Each satellite's healthy records (Galileo: those of the E1/E5b clock), for ``NearestToe``: the
+    choice ``select_ephemeris`` makes, by bisection (a day at 30 s asks 2,880 x ~90 times over ~7,000
+    records)."""
     out: dict[str, list] = {}
     for e in nav:
         if e.system in systems and e.health == 0 and (e.system != "E" or e.data_source & GAL_CLOCK_E1E5B):
             out.setdefault(e.sat_id, []).append(e)
-    return {s: _Records([e.toe_s for e in sorted(v, key=lambda e: e.toe_s)], sorted(v, key=lambda e: e.toe_s))
-            for s, v in out.items()}
+    return {s: NearestToe(v) for s, v in out.items()}
 
 
 def simulate_station(nav, xyz_m, t0_gpst_s: float, t1_gpst_s: float, interval_s: float = 30.0,
@@ -90,7 +74,7 @@ def simulate_station(nav, xyz_m, t0_gpst_s: float, t1_gpst_s: float, interval_s:
         t_true = tk - clk_b[k] / C_MPS           # the epoch is tagged in receiver time (tk), on the interval grid
         ephs = []
         for sid, recs in sats.items():
-            e = recs.at(system_time_s(sid[0], t_true), MAX_AGE_S.get(sid[0], 3600.0))
+            e = recs.select(system_time_s(sid[0], t_true))
             if e is not None:
                 ephs.append(e)
         r_s, v_s, cb, cd, tau, R, dR = satellite_states_at_reception(ephs, t_true, xyz_m)

@@ -44,7 +44,7 @@ def test_code_and_phase_obey_the_ionosphere_and_group_delays(nav):
     for sid, v in eps[0][1].items():
         if sid[0] != "G":
             continue
-        e = recs[sid].at(t0, 7200.0)
+        e = recs[sid].select(t0, 7200.0)
         d1, d2 = group_delay_s(e, "1C"), group_delay_s(e, "2W")
         i1 = (v["C1C"] - v["C2W"] - C_MPS * (d1 - d2)) / (1.0 - g12)
         assert 0.5 < i1 < 40.0, (sid, i1)                         # a Klobuchar slant delay on L1 (m)
